@@ -1,0 +1,192 @@
+"""The command line: ``fsivsp paper`` (Section 5.3, Tables 1–8)."""
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+
+MAX_LEVEL = 6
+
+
+class UsageError(Exception):
+    """Bad command-line input: reported in one line, exit code 2."""
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, exit 2, no usage dump
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def levels_arg(text: str) -> range:
+    """'A-B' or 'A' → range(A, B + 1)."""
+    parts = text.split("-")
+    try:
+        if len(parts) not in (1, 2):
+            raise ValueError
+        low, high = int(parts[0]), int(parts[-1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--levels: expected A-B or A with whole numbers, got {text!r}") from None
+    if not 0 <= low <= high <= MAX_LEVEL:
+        raise argparse.ArgumentTypeError(
+            f"--levels: expected 0 <= A <= B <= {MAX_LEVEL}, got {text!r}")
+    return range(low, high + 1)
+
+
+def positive_float(name: str):
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: expected a positive number, got {text!r}") from None
+        if not value > 0 or value == float("inf"):
+            raise argparse.ArgumentTypeError(f"{name}: expected a positive number, got {text!r}")
+        return value
+    return parse
+
+
+def positive_int(name: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name}: expected a positive whole number, got {text!r}") from None
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{name}: expected a positive whole number, got {text!r}")
+        return value
+    return parse
+
+
+def build_parser() -> Parser:
+    parser = Parser(prog="fsivsp", description="Velocity–stress–pressure finite elements for linear FSI "
+                    "(González & Selgas, Appl. Numer. Math. 123, 2018).")
+    parser.add_argument("--version", action="version", version=f"fsivsp {__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    commands.required = True
+
+    paper = commands.add_parser("paper", help="reproduce the experiment of Section 5.3 (Tables 1–8)",
+                                description="Run the paper's experiment (MINI element, backward Euler, T = 1) "
+                                "on uniformly refined meshes and print errors and rates next to the paper's.")
+    paper.add_argument("--dt", type=positive_float("--dt"), default=1e-2, help="time step (default 1e-2)")
+    paper.add_argument("--levels", type=levels_arg, default=range(0, 5),
+                       help="refinement levels, 'A-B' or 'A' (default 0-4)")
+    paper.add_argument("--all", action="store_true",
+                       help="run dt = 1e-1, 1e-2, 1e-3, 1e-4 (Tables 1–8) and write a Markdown report with a plot")
+    paper.add_argument("--initial-stress", choices=("displacement", "projection"), default="displacement",
+                       help="σ⁰ from the interpolated displacement (the paper's, default) or the L² projection (26)")
+    paper.add_argument("--no-project", action="store_true",
+                       help="refine without moving new interface nodes onto the circle")
+    paper.add_argument("--solver", default=None, help="direct solver (default: the fastest safe one available)")
+    paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
+    paper.add_argument("--out", type=Path, default=Path("paper-report"), metavar="DIR",
+                       help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
+    paper.add_argument("--jobs", type=positive_int("--jobs"), default=os.cpu_count() or 1,
+                       help="with --all: parallel processes (default: all cores)")
+    paper.add_argument("--quiet", action="store_true", help="no progress bars")
+    paper.set_defaults(handler=paper_command)
+    return parser
+
+
+def paper_options(args) -> dict:
+    return {"initial_stress": args.initial_stress, "project_refinement": not args.no_project, "solver": args.solver}
+
+
+def paper_job(job: tuple[float, int, dict]) -> dict:
+    """One (Δt, level) run of the paper's experiment (a worker of ``paper --all``)."""
+    from .geometry import refined
+    from .paper import paper_case
+    from .study import run_level
+
+    dt, level, options = job
+    case = paper_case(dt, **options)
+    record = run_level(case, refined(case.coarse_mesh(), level, case.project_refinement), level)
+    record["dt"] = dt
+    return record
+
+
+def paper_command(args) -> int:
+    from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
+    from .report import convergence_plot, error_table, rate_table, write_atomic, write_json
+    from .solvers import available_methods
+    from .study import rates, study
+
+    if args.solver is not None and args.solver not in available_methods():
+        raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(available_methods())}, got {args.solver!r}")
+    options = paper_options(args)
+    if not args.all:
+        case = paper_case(args.dt, **options)
+        records = study(case, args.levels, quiet=args.quiet)
+        for r in records:
+            r["dt"] = args.dt
+        reference = reference_table(args.dt)
+        print(f"Δt = {args.dt:g}: errors, the paper's in parentheses (Tables 1–4)")
+        print(error_table(records, reference))
+        if len(records) > 1:
+            print(f"\nΔt = {args.dt:g}: rates (76), the paper's in parentheses (Tables 5–8)")
+            print(rate_table(records, reference))
+        print(f"\nestimated backward-Euler floor of e(σ) for this Δt: {stress_time_floor(args.dt):.4f}")
+        if args.json:
+            write_json(args.json, records)
+        return 0
+
+    jobs = [(dt, level, options) for dt in TIME_STEPS for level in args.levels]
+    jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first
+    start = time.perf_counter()
+    results = run_jobs(jobs, args.jobs, args.quiet)
+    wall = time.perf_counter() - start
+    series, references = {}, {}
+    lines = ["# fsivsp: the experiment of Section 5.3", "",
+             f"MINI element, backward Euler, T = 1; initial stress from the {args.initial_stress}; "
+             f"refinement {'without' if args.no_project else 'with'} projection onto the circle. "
+             f"Wall time {wall:.0f} s on {args.jobs} process(es).", "",
+             "Errors with the paper's in parentheses; dofs in the paper's convention.", ""]
+    for dt in TIME_STEPS:
+        records = sorted((r for r in results if r["dt"] == dt), key=lambda r: r["level"])
+        rates(records, 2)
+        reference = reference_table(dt)
+        label = f"Δt = {dt:g}"
+        series[label], references[label] = records, reference
+        lines += [f"## {label}", "", error_table(records, reference, markdown=True), "",
+                  rate_table(records, reference, markdown=True), "",
+                  f"Estimated time-error floor of e(σ): {stress_time_floor(dt):.4f}.", ""]
+    lines += ["![convergence](convergence.png)", ""]
+    args.out.mkdir(parents=True, exist_ok=True)
+    convergence_plot(series, references, args.out / "convergence.png")
+    write_atomic(args.out / "report.md", "\n".join(lines))
+    all_records = [r for label in series for r in series[label]]
+    write_json(args.json or args.out / "results.json", all_records)
+    print("\n".join(lines))
+    print(f"\nwrote {args.out / 'report.md'}, {args.out / 'convergence.png'}")
+    return 0
+
+
+def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
+    """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
+    from tqdm.auto import tqdm
+
+    if processes == 1:
+        return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(processes) as pool:
+        return list(tqdm(pool.imap_unordered(paper_job, jobs), total=len(jobs), disable=quiet, unit="run"))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        return args.handler(args)
+    except UsageError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

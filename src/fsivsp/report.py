@@ -1,0 +1,117 @@
+"""Tables in the paper's layout, Markdown reports and convergence plots."""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+QUANTITIES = ("v1", "v2", "p", "sigma", "total")
+HEADERS = {"v1": "e(v1)", "v2": "e(v2)", "v3": "e(v3)", "p": "e(p)", "sigma": "e(σ)", "total": "e(v,p,σ)"}
+
+
+def quantities(records: list[dict]) -> list[str]:
+    """The error keys present, in the paper's order (v1, v2[, v3], p, sigma, total)."""
+    keys = records[0]["errors"].keys()
+    return [k for k in ("v1", "v2", "v3", "p", "sigma", "total") if k in keys]
+
+
+def _pair(ours, theirs, fmt: str) -> str:
+    if ours is None:
+        return "—"
+    return f"{ours:{fmt}}" if theirs is None else f"{ours:{fmt}} ({theirs:{fmt}})"
+
+
+def error_table(records: list[dict], reference: list[dict] | None = None, markdown: bool = False) -> str:
+    """Errors per level, the paper's values in parentheses where given (Tables 1–4 layout)."""
+    ref = {r["level"]: r for r in reference or []}
+    keys = quantities(records)
+    head = ["level", "vertices", "dofs"] + [HEADERS[k] for k in keys]
+    rows = []
+    for rec in records:
+        theirs = ref.get(rec["level"])
+        rows.append([
+            str(rec["level"]),
+            _pair(rec["vertices"], theirs and theirs["vertices"], "d"),
+            _pair(rec.get("paper_dofs") or rec["dofs"], theirs and theirs["dofs"], "d"),
+        ] + [_pair(rec["errors"][k], theirs and theirs["errors"].get(k), ".6f") for k in keys])
+    return _layout(head, rows, markdown)
+
+
+def rate_table(records: list[dict], reference: list[dict] | None = None, markdown: bool = False) -> str:
+    """Rates (76) per pair of levels, the paper's (Tables 5–8) in parentheses."""
+    from .study import rates
+
+    theirs = {}
+    if reference:
+        ref = [dict(r) for r in reference]
+        rates(ref, 2)
+        theirs = {r["level"]: r["rates"] for r in ref}
+    keys = quantities(records)
+    head = ["levels"] + [HEADERS[k].replace("e(", "r(") for k in keys]
+    rows = []
+    for rec in records[1:]:
+        other = theirs.get(rec["level"], {})
+        rows.append([f"{rec['level'] - 1}→{rec['level']}"] +
+                    [_pair(rec["rates"][k], other.get(k), ".3f") for k in keys])
+    return _layout(head, rows, markdown)
+
+
+def _layout(head: list[str], rows: list[list[str]], markdown: bool) -> str:
+    if markdown:
+        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        lines += ["| " + " | ".join(row) + " |" for row in rows]
+        return "\n".join(lines)
+    widths = [max(len(r[i]) for r in [head] + rows) for i in range(len(head))]
+    fmt = lambda row: "  ".join(cell.rjust(w) for cell, w in zip(row, widths))
+    return "\n".join([fmt(head)] + [fmt(row) for row in rows])
+
+
+def write_atomic(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` via a temporary file and a rename: never a half-written file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_json(path: str | Path, data) -> None:
+    write_atomic(path, json.dumps(data, indent=2) + "\n")
+
+
+def convergence_plot(series: dict[str, list[dict]], references: dict[str, list[dict]], path: str | Path) -> None:
+    """Log–log errors against vertices, one panel per unknown, ours solid and the paper's dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    first = next(iter(series.values()))
+    keys = quantities(first)
+    fig, axes = plt.subplots(1, len(keys), figsize=(4 * len(keys), 3.6), constrained_layout=True)
+    for ax, key in zip(axes, keys):
+        for i, (label, records) in enumerate(series.items()):
+            color = f"C{i}"
+            ax.loglog([r["vertices"] for r in records], [r["errors"][key] for r in records], "o-", color=color, label=label)
+            ref = references.get(label)
+            if ref:
+                ax.loglog([r["vertices"] for r in ref], [r["errors"][key] for r in ref], "x--", color=color, alpha=0.6)
+        n = [r["vertices"] for r in first]
+        e0 = first[0]["errors"][key]
+        ax.loglog(n, [e0 * (m / n[0]) ** -0.5 for m in n], ":", color="gray", label="slope h¹")
+        ax.set_title(HEADERS[key])
+        ax.set_xlabel("vertices")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle("fsivsp (solid) vs González & Selgas 2018 (dashed)")
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    os.replace(tmp, path)

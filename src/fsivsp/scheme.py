@@ -1,0 +1,216 @@
+"""The fully discrete scheme (5.1): backward Euler, one saddle-point solve per step,
+then the pointwise stress update.
+
+Everything that depends only on the mesh and Δt — the step-1 matrix and its
+factorisation, the mass and coupling operators, the load vectors of time-separable
+data — is built once in `BackwardEuler.__init__`; `step` only applies operators to
+vectors.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import ngsolve as ngs
+from ngsolve import InnerProduct, dx, ds
+
+from . import forms
+from .fields import Field, TimeVector
+from .geometry import FLUID, INTERFACE, SOLID, interface_normal
+from .materials import Materials
+from .solvers import DirectSolver
+from .spaces import Spaces
+
+
+@dataclass
+class Data:
+    """Data of the model (1)–(3) as fields of x, y, z, t.
+
+    ``boundary_velocity`` maps boundary names (``"a|b"`` allowed) to Dirichlet data,
+    ``boundary_traction`` to prescribed σn, ``interface_jump`` is a tensor J whose
+    traction J n (n from Ω_F into Ω_S) loads Γ. The initial stress is built from
+    ``displacement0`` (σ⁰ = λ div(I_h u⁰) I + 2μ ε(I_h u⁰), the paper's experiment) or,
+    if given, is the L² projection (26) of ``stress0``.
+    """
+
+    velocity0: Field
+    displacement0: Field | None = None
+    stress0: Field | None = None
+    force_fluid: Field | None = None
+    force_solid: Field | None = None
+    boundary_velocity: dict[str, Field] = field(default_factory=dict)
+    boundary_traction: dict[str, Field] = field(default_factory=dict)
+    interface_jump: Field | None = None
+
+
+def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
+    """I_h v: nodal P1 interpolation for MINI (bubbles zero, as in the paper's
+    experiment), NGSolve's projection-based interpolation for Taylor–Hood."""
+    gf = ngs.GridFunction(spaces.velocity)
+    if spaces.family == "mini":
+        linear = ngs.GridFunction(ngs.VectorH1(spaces.mesh, order=1))
+        linear.Set(values)
+        gf.Set(linear)
+    else:
+        gf.Set(values)
+    return gf
+
+
+class BackwardEuler:
+    """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1)."""
+
+    def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
+                 solver: str | None = None, track_displacement: bool = False):
+        if dt <= 0:
+            raise ValueError(f"dt: expected a positive time step, got {dt}")
+        self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
+        X, S, mesh = spaces.mixed, spaces.stress, spaces.mesh
+
+        step = forms.step_matrix(spaces, materials, dt).Assemble()
+        self._matrix = step.mat
+        self.solver = DirectSolver(step.mat, X.FreeDofs(), method=solver)
+        self._mass = forms.velocity_mass(spaces, materials).Assemble().mat
+        self._divergence = forms.stress_divergence(spaces).Assemble().mat
+        self._rate = forms.stress_rate(spaces, materials).Assemble().mat
+        stress_mass = forms.stress_mass(spaces).Assemble().mat
+        self._stress_inverse = stress_mass.Inverse(S.FreeDofs(), inverse="sparsecholesky")
+        self._compliance = self._compliance_matrix()
+
+        self._loads = self._load_vectors()
+        self._dirichlet = self._dirichlet_vectors()
+
+        self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ)
+        self.stress = ngs.GridFunction(S)      # σⁿ
+        self.velocity, self.pressure = self.state.components
+        self.displacement = ngs.GridFunction(spaces.velocity) if track_displacement else None
+        self.time, self.n = 0.0, 0
+        self._rhs = self.state.vec.CreateVector()
+        self._boundary = self.state.vec.CreateVector()
+        self._stress_rate = self.stress.vec.CreateVector()
+        self._work = self.state.vec.CreateVector()
+        self.initialise()
+
+    # -- precomputation -------------------------------------------------------------
+    def _linear_form(self, integrand: Callable, measure) -> Callable:
+        """image(cf) for `TimeVector`: the load ∫ integrand(cf, w) over ``measure``."""
+        w, _ = self.spaces.mixed.TestFunction()
+
+        def image(cf):
+            form = ngs.LinearForm(self.spaces.mixed)
+            form += integrand(cf, w) * measure
+            return lambda: form.Assemble().vec
+
+        return image
+
+    def _load_vectors(self) -> list[TimeVector]:
+        """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, each a `TimeVector`."""
+        d, mesh = self.data, self.spaces.mesh
+        order = 2 * self.spaces.velocity.globalorder + 2
+        dot = lambda cf, w: InnerProduct(cf, w)
+        loads = []
+        if d.force_fluid is not None:
+            loads.append(TimeVector(d.force_fluid, self._linear_form(dot, dx(FLUID, bonus_intorder=order))))
+        if d.force_solid is not None:
+            loads.append(TimeVector(d.force_solid, self._linear_form(dot, dx(SOLID, bonus_intorder=order))))
+        for name, traction in d.boundary_traction.items():
+            loads.append(TimeVector(traction, self._linear_form(dot, ds(name, bonus_intorder=order))))
+        if d.interface_jump is not None and not d.interface_jump.is_zero():
+            n = interface_normal(mesh)
+            loads.append(TimeVector(d.interface_jump,
+                                    self._linear_form(lambda J, w: InnerProduct(J * n, w),
+                                                      ds(INTERFACE, bonus_intorder=order))))
+        return loads
+
+    def _dirichlet_vectors(self) -> list[TimeVector]:
+        """Boundary values of the velocity, each dof owned by the first boundary naming it."""
+        mesh, V = self.spaces.mesh, self.spaces.velocity
+        owned = ngs.BitArray(self.spaces.mixed.ndof)
+        owned.Clear()
+        vectors = []
+        for names, values in self.data.boundary_velocity.items():
+            region = mesh.Boundaries(names)
+            mine = ngs.BitArray(self.spaces.mixed.ndof)
+            mine.Clear()
+            for el in mesh.Elements(ngs.BND):
+                if region.Mask()[el.index]:
+                    for dof in V.GetDofNrs(el):
+                        if dof >= 0 and not owned[dof]:
+                            mine.Set(dof)
+            owned = owned | mine
+            vectors.append(TimeVector(values, self._boundary_image(region, mine)))
+        return vectors
+
+    def _boundary_image(self, region, mine: ngs.BitArray) -> Callable:
+        def image(cf):
+            gf = ngs.GridFunction(self.spaces.mixed)
+            others = ~np.array([mine[i] for i in range(len(mine))], dtype=bool)
+
+            def compute():
+                gf.components[0].Set(cf, ngs.BND, definedon=region)
+                gf.vec.FV().NumPy()[others] = 0.0
+                return gf.vec
+
+            return compute
+
+        return image
+
+    def _compliance_matrix(self) -> ngs.BaseMatrix:
+        """∫_S A σ:τ with the compliance A σ = (σ − λ/(dλ + 2μ) tr(σ) I) / (2μ) (elastic energy)."""
+        S, mat, dim = self.spaces.stress, self.materials, self.spaces.mesh.dim
+        sigma, tau = S.TnT()
+        a = ngs.BilinearForm(S)
+        a += (InnerProduct(sigma, tau) - mat.lam / (dim * mat.lam + 2 * mat.mu) * ngs.Trace(sigma) * ngs.Trace(tau)) \
+            / (2 * mat.mu) * dx(SOLID)
+        return a.Assemble().mat
+
+    # -- state ------------------------------------------------------------------------
+    def initialise(self) -> None:
+        """v⁰_h = I_h v⁰ and σ⁰_h from the interpolated displacement or by L² projection (26)."""
+        d, S = self.data, self.spaces.stress
+        self.state.vec[:] = 0.0
+        self.velocity.vec.data = interpolate(self.spaces, d.velocity0.coefficient(0.0)).vec
+        self.stress.vec[:] = 0.0
+        u0 = None
+        if d.displacement0 is not None:
+            u0 = interpolate(self.spaces, d.displacement0.coefficient(0.0))
+        if d.stress0 is not None:
+            tau = S.TestFunction()
+            load = ngs.LinearForm(S)
+            load += InnerProduct(d.stress0.coefficient(0.0), tau) * dx(SOLID, bonus_intorder=4)
+            self.stress.vec.data = self._stress_inverse * load.Assemble().vec
+        elif u0 is not None:
+            self._work[:] = 0.0
+            self._work[: len(u0.vec)] = u0.vec  # V_h is the first block of X_h
+            self.stress.vec.data = self._stress_inverse * (self._rate * self._work)
+        if self.displacement is not None:
+            self.displacement.vec[:] = 0.0
+            if u0 is not None:
+                self.displacement.vec.data = u0.vec
+        self.time, self.n = 0.0, 0
+
+    def step(self) -> None:
+        """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then
+        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)) exactly (condition (18))."""
+        dt, time = self.dt, self.time + self.dt
+        rhs, boundary, x = self._rhs, self._boundary, self.state.vec
+        rhs.data = self._mass * x
+        rhs.data -= dt * (self._divergence * self.stress.vec)
+        for load in self._loads:
+            load.add_to(rhs, time, dt)
+        boundary[:] = 0.0
+        for values in self._dirichlet:
+            values.add_to(boundary, time)
+        rhs.data -= self._matrix * boundary
+        x.data = boundary
+        x.data += self.solver.inverse * rhs
+        self._stress_rate.data = self._stress_inverse * (self._rate * x)
+        self.stress.vec.data += dt * self._stress_rate
+        if self.displacement is not None:
+            self.displacement.vec.data += dt * self.velocity.vec
+        self.time, self.n = time, self.n + 1
+
+    def energy(self) -> float:
+        """½∫ρ|vⁿ|² + ½∫_S Aσⁿ:σⁿ; non-increasing when f = 0 and the boundary is at rest."""
+        x, s = self.state.vec, self.stress.vec
+        return 0.5 * (InnerProduct(x, self._mass * x) + InnerProduct(s, self._compliance * s))

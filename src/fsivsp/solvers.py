@@ -1,0 +1,389 @@
+"""Direct solvers for the scheme's saddle-point matrix: factorise once, solve many times.
+
+Every time step of the scheme solves one linear system with the same symmetric
+*indefinite* matrix (velocity block plus the fluid pressure constraint), so the
+matrix is factorised once per run and the factorisation is applied at each step.
+:class:`DirectSolver` wraps the available sparse direct solvers behind one small
+interface so that an iterative or distributed path can replace it later:
+
+>>> solver = DirectSolver(a.mat, X.FreeDofs())          # factorises and checks
+>>> x.data = solver.inverse * r                         # composes like NGSolve inverses
+>>> solver.solve(r, x)                                  # the same, as a method
+
+Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
+
+``"pardiso"``
+    Intel MKL PARDISO through NGSolve (needs the ``mkl`` pip package, which NGSolve
+    finds by itself; about 690 MB installed plus ~300 MB of Intel runtime libraries).
+    The fastest factorisation and solve here.
+``"umfpack"``
+    SuiteSparse UMFPACK, built into the NGSolve wheels: LU with partial pivoting,
+    safe on indefinite matrices. The default when MKL is not installed. (NGSolve's
+    UMFPACK wrapper mishandles symmetric *storage*; a full copy is factorised then.)
+``"sparsecholesky"``
+    NGSolve's own LDL^T factorisation *without pivoting*. On an indefinite matrix it
+    may break down or lose accuracy, which the residual check detects.
+``"scipy"``
+    ``scipy.sparse.linalg.splu`` (SuperLU) on the free-dof block, wrapped as an
+    NGSolve :class:`~ngsolve.BaseMatrix`. Slower, but independent of NGSolve's
+    solvers (a cross-check).
+"""
+from __future__ import annotations
+
+import functools
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import ngsolve as ngs
+from pyngcore import Flags
+
+__all__ = [
+    "METHODS",
+    "SolverError",
+    "available_methods",
+    "default_method",
+    "DirectSolver",
+    "free_mask",
+    "is_symmetric",
+    "to_scipy_csr",
+]
+
+#: All methods :class:`DirectSolver` knows, in order of preference (fastest first,
+#: as measured on the scheme's matrix; see benchmarks/solver_comparison.md).
+METHODS: tuple[str, ...] = ("pardiso", "umfpack", "sparsecholesky", "scipy")
+
+#: Methods whose factorisation pivots, i.e. is safe on symmetric indefinite matrices.
+PIVOTING_METHODS: frozenset[str] = frozenset({"pardiso", "umfpack", "scipy"})
+
+#: SuperLU options for the "scipy" method, chosen by measurement (level 4, 72k free
+#: dofs): COLAMD factorises in 1.6 s; MMD_AT_PLUS_A needs 14 s with SymmetricMode and
+#: 197 s without; MMD_ATA is as fast as COLAMD.
+SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
+
+#: Flags for NGSolve's MKL PARDISO inverse, chosen by measurement. NGSolve's own
+#: defaults (unsymmetric matrix type 11, minimum-degree ordering, up to 16 steps of
+#: iterative refinement at every solve) make a solve ~2x slower than sparsecholesky;
+#: the symmetric indefinite type (-2, Bunch-Kaufman pivoting; set automatically when
+#: the matrix is symmetric), METIS ordering and refinement 0 (MKL then refines
+#: automatically only if pivots had to be perturbed) make it ~2.3x faster.
+PARDISO_FLAGS: dict[str, Any] = {"ordering": "metis", "refinement": 0}
+
+
+class SolverError(RuntimeError):
+    """A factorisation that failed or whose residual check did not pass."""
+
+
+# ---------------------------------------------------------------------------
+# helpers
+
+
+def free_mask(freedofs: ngs.BitArray | None, n: int) -> np.ndarray:
+    """The free dofs as a boolean numpy mask of length ``n`` (all True if None)."""
+    if freedofs is None:
+        return np.ones(n, dtype=bool)
+    if len(freedofs) != n:
+        raise ValueError(f"freedofs has {len(freedofs)} bits, the matrix {n} rows")
+    return np.fromiter(freedofs, dtype=bool, count=n)
+
+
+def _raw_csr(matrix):
+    import scipy.sparse as sp
+
+    vals, cols, rowptr = matrix.CSR()
+    return sp.csr_matrix(
+        (np.array(vals, dtype=float), np.array(cols), np.array(rowptr)),
+        shape=(matrix.height, matrix.width),
+    )
+
+
+def _stores_lower_triangle(matrix) -> bool:
+    """True for NGSolve's symmetric storage (only the lower triangle is kept)."""
+    if isinstance(matrix, getattr(ngs.la, "SparseMatrixSymmetricd", ())):
+        return True
+    return bool(getattr(matrix, "is_symmetric_storage", False))
+
+
+def to_scipy_csr(matrix, *, verify: bool = True):
+    """The full matrix of an assembled NGSolve sparse matrix as scipy CSR.
+
+    With ``BilinearForm(..., symmetric=True, symmetric_storage=True)`` NGSolve keeps
+    only the lower triangle (``SparseMatrixSymmetricd``); its ``CSR()`` is then
+    symmetrised to ``L + L^T - diag(L)``. If ``verify``, the result is compared with
+    NGSolve's own matrix-vector product on a random vector, and symmetrised anyway
+    if a triangular pattern only matches that way (storage flags are not always
+    exposed).
+    """
+    import scipy.sparse as sp
+
+    raw = _raw_csr(matrix)
+    candidates = []
+    if _stores_lower_triangle(matrix):
+        candidates.append(_symmetrise_lower(raw))
+    candidates.append(raw)
+    if not verify:
+        return candidates[0]
+    if sp.triu(raw, 1).nnz == 0 and sp.tril(raw, -1).nnz > 0 and len(candidates) == 1:
+        candidates.append(_symmetrise_lower(raw))
+
+    x = matrix.CreateRowVector()
+    y = matrix.CreateColVector()
+    xs = np.random.default_rng(12345).standard_normal(matrix.width)
+    x.FV().NumPy()[:] = xs
+    y.data = matrix * x
+    ys = y.FV().NumPy()
+    scale = max(np.linalg.norm(ys), 1e-300)
+    for cand in candidates:
+        if np.linalg.norm(cand @ xs - ys) <= 1e-12 * scale + 1e-300:
+            return cand
+    raise SolverError("scipy: CSR conversion does not reproduce the NGSolve matrix-vector product")
+
+
+def is_symmetric(matrix, rtol: float = 1e-12) -> bool:
+    """Whether ``matrix`` is symmetric: by its storage, else by the probabilistic test
+    ``|y^T A x - x^T A y| <= rtol ||A x|| ||y||`` with seeded random x, y (two
+    matrix-vector products; an asymmetry above roundoff fails it with probability 1)."""
+    if _stores_lower_triangle(matrix):
+        return True
+    if matrix.height != matrix.width:
+        return False
+    rng = np.random.default_rng(4321)
+    x, y = matrix.CreateRowVector(), matrix.CreateRowVector()
+    x.FV().NumPy()[:] = rng.standard_normal(matrix.width)
+    y.FV().NumPy()[:] = rng.standard_normal(matrix.width)
+    ax, ay = matrix.CreateColVector(), matrix.CreateColVector()
+    ax.data = matrix * x
+    ay.data = matrix * y
+    xs, ys = x.FV().NumPy(), y.FV().NumPy()
+    axs, ays = ax.FV().NumPy(), ay.FV().NumPy()
+    scale = max(np.linalg.norm(axs) * np.linalg.norm(ys), np.linalg.norm(ays) * np.linalg.norm(xs))
+    return bool(abs(ys @ axs - xs @ ays) <= rtol * scale)
+
+
+def full_storage_copy(matrix):
+    """A full-storage ``SparseMatrixd`` copy of an NGSolve sparse matrix."""
+    coo = to_scipy_csr(matrix).tocoo()
+    return ngs.la.SparseMatrixd.CreateFromCOO(
+        coo.row.tolist(), coo.col.tolist(), coo.data.tolist(), matrix.height, matrix.width
+    )
+
+
+def _symmetrise_lower(lower):
+    import scipy.sparse as sp
+
+    lower = sp.tril(lower).tocsr()
+    full = lower + sp.tril(lower, -1).T
+    return full.tocsr()
+
+
+# ---------------------------------------------------------------------------
+# scipy SuperLU wrapped as an NGSolve BaseMatrix
+
+
+class ScipyLUInverse(ngs.BaseMatrix):
+    """``A_ff^{-1}`` from ``scipy.sparse.linalg.splu`` as an NGSolve BaseMatrix.
+
+    ``Mult(x, y)`` sets ``y[free] = A_ff^{-1} x[free]`` and ``y[non-free] = 0``,
+    like the inverses NGSolve returns from ``mat.Inverse(freedofs)``.
+    """
+
+    def __init__(self, matrix, freedofs, options: Mapping[str, Any] | None = None):
+        super().__init__()
+        from scipy.sparse.linalg import splu
+
+        self._n = matrix.height
+        self._template = matrix.CreateColVector()
+        self._free = np.flatnonzero(free_mask(freedofs, self._n))
+        full = to_scipy_csr(matrix)
+        aff = full[self._free][:, self._free].tocsc()
+        opts = dict(SCIPY_SPLU_OPTIONS)
+        if options:
+            opts.update(options)
+        self.lu = splu(aff, **opts)
+
+    # BaseMatrix protocol
+    def IsComplex(self):
+        return False
+
+    def Height(self):
+        return self._n
+
+    def Width(self):
+        return self._n
+
+    def CreateRowVector(self):
+        return self._template.CreateVector()
+
+    def CreateColVector(self):
+        return self._template.CreateVector()
+
+    def Mult(self, x, y):
+        xs = x.FV().NumPy()
+        ys = y.FV().NumPy()
+        sol = self.lu.solve(np.ascontiguousarray(xs[self._free]))
+        ys[:] = 0.0
+        ys[self._free] = sol
+
+    def MultTrans(self, x, y):  # the matrix is symmetric, but be correct anyway
+        xs = x.FV().NumPy()
+        ys = y.FV().NumPy()
+        sol = self.lu.solve(np.ascontiguousarray(xs[self._free]), trans="T")
+        ys[:] = 0.0
+        ys[self._free] = sol
+
+
+# ---------------------------------------------------------------------------
+# availability
+
+
+def _probe_matrix():
+    """A small symmetric indefinite (saddle-point) test matrix, all dofs free."""
+    rows = [0, 1, 2, 0, 2, 1, 2]
+    cols = [0, 1, 2, 2, 0, 2, 1]
+    vals = [2.0, 3.0, -1.0, 1.0, 1.0, 1.0, 1.0]
+    return ngs.la.SparseMatrixd.CreateFromCOO(rows, cols, vals, 3, 3)
+
+
+def _works(method: str) -> bool:
+    try:
+        DirectSolver(_probe_matrix(), None, method=method, check=True, rtol=1e-10)
+    except Exception:
+        return False
+    return True
+
+
+@functools.cache
+def available_methods() -> list[str]:
+    """The methods of :data:`METHODS` that factorise a small test matrix here."""
+    return [m for m in METHODS if _works(m)]
+
+
+def default_method() -> str:
+    """The fastest safe method available: MKL PARDISO if the ``mkl`` package is
+    installed, else UMFPACK (built into NGSolve), else SuperLU via scipy, and
+    NGSolve's sparsecholesky only as the last resort (it does not pivot)."""
+    avail = available_methods()
+    for m in ("pardiso", "umfpack", "scipy", "sparsecholesky"):
+        if m in avail:
+            return m
+    return "sparsecholesky"
+
+
+# ---------------------------------------------------------------------------
+# the solver
+
+
+def _free_residual(matrix, inverse, mask: np.ndarray, seed: int) -> float:
+    b = matrix.CreateColVector()
+    bs = b.FV().NumPy()
+    bs[:] = np.random.default_rng(seed).standard_normal(len(bs))
+    bs[~mask] = 0.0
+    x = matrix.CreateRowVector()
+    x.data = inverse * b
+    r = b.CreateVector()
+    r.data = b - matrix * x
+    rs = r.FV().NumPy()[mask]
+    nb = np.linalg.norm(bs[mask])
+    if nb == 0.0:
+        return 0.0
+    res = float(np.linalg.norm(rs) / nb)
+    return res if np.isfinite(res) else float("inf")
+
+
+class DirectSolver:
+    """Factorise once, solve many times; an inverse of ``matrix`` on the free dofs.
+
+    Parameters
+    ----------
+    matrix
+        An assembled NGSolve sparse matrix (``BilinearForm.mat``), with full or
+        symmetric (lower-triangle) storage.
+    freedofs
+        The free dofs (``fes.FreeDofs()``); ``None`` means all.
+    method
+        One of :data:`METHODS`; ``None`` chooses :func:`default_method`.
+    check
+        Solve once with a seeded random right-hand side on the free dofs and raise
+        :class:`SolverError` unless ``||b - A x|| / ||b|| < rtol`` (on the free dofs).
+        sparsecholesky is LDL^T without pivoting; on an indefinite matrix this check
+        is what makes it safe to use.
+    rtol
+        Tolerance of the residual check.
+    options
+        Method-specific options: for "scipy" keyword arguments of ``splu``
+        (overriding :data:`SCIPY_SPLU_OPTIONS`), for the NGSolve methods flags of
+        the inverse (e.g. ``{"symmetric": True}`` for pardiso).
+
+    Attributes
+    ----------
+    method, residual (NaN without check), factor_seconds, inverse (an NGSolve
+    BaseMatrix, so ``x.data = solver.inverse * r`` works), freedofs.
+    """
+
+    def __init__(
+        self,
+        matrix,
+        freedofs: ngs.BitArray | None = None,
+        method: str | None = None,
+        check: bool = True,
+        rtol: float = 1e-8,
+        options: Mapping[str, Any] | None = None,
+    ):
+        method = default_method() if method is None else method
+        if method not in METHODS:
+            raise ValueError(f"unknown solver method {method!r}; known: {', '.join(METHODS)}")
+        self.method = method
+        self.matrix = matrix
+        self.freedofs = freedofs
+        self.rtol = rtol
+        self.residual = float("nan")
+
+        start = time.perf_counter()
+        try:
+            if method == "scipy":
+                self.inverse = ScipyLUInverse(matrix, freedofs, options)
+            else:
+                opts: dict[str, Any] = {}
+                if method == "pardiso":
+                    opts.update(PARDISO_FLAGS)
+                    opts["symmetric"] = is_symmetric(matrix)
+                opts.update(options or {})
+                flags = Flags(opts) if opts else None
+                target = matrix
+                if method == "umfpack" and _stores_lower_triangle(matrix):
+                    # NGSolve's UMFPACK takes the stored lower triangle for the whole
+                    # matrix (fails or solves a wrong system): factorise a full copy
+                    target = full_storage_copy(matrix)
+                self.inverse = target.Inverse(freedofs, inverse=method, flags=flags)
+                self._factored_matrix = target
+        except SolverError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - any backend failure
+            raise SolverError(f"{method}: factorisation failed: {exc}") from exc
+        self.factor_seconds = time.perf_counter() - start
+
+        if check:
+            self.residual = _free_residual(
+                matrix, self.inverse, free_mask(freedofs, matrix.height), seed=20180101
+            )
+            if not self.residual < rtol:
+                raise SolverError(
+                    f"{method}: residual check failed, ||b - A x|| / ||b|| = "
+                    f"{self.residual:.3e} >= rtol = {rtol:.1e}"
+                    + ("" if method in PIVOTING_METHODS else " (no pivoting: the matrix is indefinite?)")
+                )
+
+    def solve(self, rhs, out) -> None:
+        """``out[free] = A_ff^{-1} rhs[free]``, ``out[non-free] = 0``."""
+        out.data = self.inverse * rhs
+
+    def __mul__(self, rhs):
+        """``solver * r`` is the lazy expression ``solver.inverse * r``."""
+        return self.inverse * rhs
+
+    def __repr__(self) -> str:
+        return (
+            f"DirectSolver(method={self.method!r}, n={self.matrix.height}, "
+            f"residual={self.residual:.2e}, factor_seconds={self.factor_seconds:.3g})"
+        )

@@ -1,0 +1,62 @@
+"""The discrete spaces of Section 5.2: V_h (global velocity), Q_h (fluid pressure),
+S_h (solid stress), and the product V_h × Q_h of step 1 of the scheme (5.1)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import ngsolve as ngs
+
+from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL
+
+FAMILIES = ("mini", "taylor_hood")
+
+
+@dataclass
+class Spaces:
+    """V_h, Q_h, S_h and X_h = V_h × Q_h on one mesh."""
+
+    family: str
+    order: int
+    velocity: ngs.FESpace
+    pressure: ngs.FESpace
+    stress: ngs.FESpace
+    mixed: ngs.FESpace
+
+    @property
+    def mesh(self) -> ngs.Mesh:
+        return self.velocity.mesh
+
+    def free_dofs(self) -> int:
+        """Unknowns of the saddle-point solve (velocity and pressure, Dirichlet dofs excluded)."""
+        return sum(self.mixed.FreeDofs())
+
+
+def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> ngs.FESpace:
+    """MINI (72): continuous P1 plus the bubble of degree d+1 on fluid cells only, so that
+    ε(V_h) restricted to the solid is piecewise constant (condition (18)).
+    Taylor–Hood: continuous P_{k+1} on Ω."""
+    if family == "taylor_hood":
+        return ngs.VectorH1(mesh, order=order + 1, dirichlet=dirichlet)
+    space = ngs.VectorH1(mesh, order=1, dirichlet=dirichlet)
+    bubble_order = mesh.dim + 1
+    for el in mesh.Elements(ngs.VOL):
+        if el.mat == FLUID:
+            space.SetOrder(ngs.NodeId(ngs.CELL, el.nr), bubble_order)
+    space.Update()
+    return space
+
+
+def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
+                 dirichlet: str = f"{FLUID_WALL}|{SOLID_WALL}") -> Spaces:
+    """V_h, Q_h, S_h of the MINI element (5.2.1) or the generalized Taylor–Hood
+    element of order k (5.2.2): Q_h continuous P_k on Ω_F, S_h discontinuous P_k
+    symmetric tensors on Ω_S (k = 1 and piecewise constants for MINI)."""
+    if family not in FAMILIES:
+        raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
+    if family == "mini":
+        order = 1
+    velocity = velocity_space(mesh, family, order, dirichlet)
+    pressure = ngs.H1(mesh, order=order, definedon=FLUID)
+    stress_order = 0 if family == "mini" else order
+    stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
+    return Spaces(family, order, velocity, pressure, stress, velocity * pressure)

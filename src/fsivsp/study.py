@@ -1,0 +1,155 @@
+"""Convergence studies: one case, a sequence of uniformly refined meshes, errors and rates (76)."""
+from __future__ import annotations
+
+import math
+import time as clock
+from dataclasses import dataclass, field
+from typing import Callable
+
+import ngsolve as ngs
+import sympy
+from tqdm.auto import tqdm
+
+from .fields import Field
+from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, refined, region_counts
+from .manufactured import ExactSolution
+from .materials import Materials
+from .norms import ErrorNorm, component, h1_component, l2, whole
+from .scheme import BackwardEuler, Data
+from .spaces import Spaces, build_spaces
+
+INITIAL_STRESS = ("displacement", "projection")
+
+
+@dataclass
+class Case:
+    """A manufactured-solution problem: geometry, materials, exact solution, discretisation."""
+
+    name: str
+    coarse_mesh: Callable[[], ngs.Mesh]
+    materials: Materials
+    exact: ExactSolution
+    T: float
+    dt: float
+    family: str = "mini"
+    order: int = 1
+    initial_stress: str = "displacement"
+    project_refinement: bool = True
+    solver: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def steps(self) -> int:
+        return max(1, round(self.T / self.dt))
+
+
+def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
+    """Γ_F ∪ Γ_S as present in the mesh (either may be empty)."""
+    present = set(mesh.GetBoundaries())
+    return "|".join(name for name in (FLUID_WALL, SOLID_WALL) if name in present)
+
+
+def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, initial_stress: str) -> Data:
+    """All data of the model derived from the exact solution (see `manufactured`)."""
+    if initial_stress not in INITIAL_STRESS:
+        raise ValueError(f"initial_stress: expected one of {', '.join(INITIAL_STRESS)}, got {initial_stress!r}")
+    return Data(
+        velocity0=Field([v.subs(sympy.Symbol("t", real=True), 0) for v in exact.velocity]),
+        displacement0=Field(exact.at_time(0).displacement) if initial_stress == "displacement" else None,
+        stress0=Field(exact.at_time(0).solid_stress(mat)) if initial_stress == "projection" else None,
+        force_fluid=Field(exact.fluid_force(mat)),
+        force_solid=Field(exact.solid_force(mat)),
+        boundary_velocity={dirichlet: Field(exact.velocity)} if dirichlet else {},
+        interface_jump=Field(exact.interface_jump(mat)),
+    )
+
+
+def error_norms(spaces: Spaces, exact: ExactSolution, mat: Materials) -> dict[str, ErrorNorm]:
+    """The norms of Section 5.3: v_j in H¹(Ω), p in L²(Ω_F), σ in L²(Ω_S)."""
+    d = spaces.mesh.dim
+    intorder = 2 * spaces.velocity.globalorder + 6
+    norms = {
+        f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder)
+        for j in range(d)
+    }
+    norms["p"] = ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, intorder)
+    norms["sigma"] = ErrorNorm(spaces.stress, whole, l2(SOLID), exact.solid_stress(mat), intorder)
+    return norms
+
+
+def paper_dofs(counts: dict[str, int]) -> int:
+    """The paper's dof count: 2·(vertices not on ∂Ω) + 2·(fluid triangles) + (fluid vertices)."""
+    return 2 * (counts["vertices"] - counts["boundary_vertices"]) + 2 * counts["fluid_cells"] + counts["fluid_vertices"]
+
+
+def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
+    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
+    check_regions(mesh)
+    start = clock.perf_counter()
+    spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
+    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress)
+    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver)
+    norms = error_norms(spaces, case.exact, case.materials)
+    setup = clock.perf_counter() - start
+    squares = dict.fromkeys(norms, 0.0)
+    start = clock.perf_counter()
+    for _ in tqdm(range(case.steps), desc=f"level {level}", leave=False, disable=quiet, unit="step"):
+        scheme.step()
+        for name, norm in norms.items():
+            vector = scheme.stress.vec if name == "sigma" else scheme.state.vec
+            squares[name] += case.dt * norm(vector, scheme.time) ** 2
+    loop = clock.perf_counter() - start
+    errors = {name: math.sqrt(value) for name, value in squares.items()}
+    errors["total"] = math.sqrt(sum(squares.values()))
+    counts = region_counts(mesh)
+    return {
+        "level": level,
+        "vertices": mesh.nv,
+        "h": max_edge_length(mesh),
+        "dofs": spaces.free_dofs(),
+        "paper_dofs": paper_dofs(counts) if mesh.dim == 2 else None,
+        "counts": counts,
+        "errors": errors,
+        "solver": scheme.solver.method,
+        "residual": scheme.solver.residual,
+        "seconds": {
+            "assembly": setup - scheme.solver.factor_seconds,
+            "factorisation": scheme.solver.factor_seconds,
+            "time_loop": loop,
+        },
+    }
+
+
+def max_edge_length(mesh: ngs.Mesh) -> float:
+    """h: the longest edge of the mesh."""
+    longest = 0.0
+    for edge in mesh.edges:
+        a, b = (mesh[v].point for v in edge.vertices)
+        longest = max(longest, math.dist(a, b))
+    return longest
+
+
+def rates(records: list[dict], dim: int) -> None:
+    """Add the rate (76), r = −d log(e_fine/e_coarse) / log(N_fine/N_coarse), to each record (None on the first)."""
+    previous = None
+    for record in records:
+        if previous is None or previous["level"] != record["level"] - 1:
+            record["rates"] = dict.fromkeys(record["errors"])
+        else:
+            ratio = math.log(record["vertices"] / previous["vertices"])
+            record["rates"] = {
+                name: (-dim * math.log(e / previous["errors"][name]) / ratio if e > 0 and previous["errors"][name] > 0 else None)
+                for name, e in record["errors"].items()
+            }
+        previous = record
+
+
+def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
+    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh."""
+    coarse = case.coarse_mesh()
+    records = []
+    for level in tqdm(levels, desc=case.name, disable=quiet, unit="level"):
+        mesh = refined(coarse, level, project=case.project_refinement)
+        records.append(run_level(case, mesh, level, quiet))
+    rates(records, coarse.dim)
+    return records

@@ -1,0 +1,249 @@
+"""fsivsp.solvers on the scheme's step-1 saddle-point matrix (small meshes)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ngsolve as ngs
+from netgen.occ import Circle, Glue, OCCGeometry, Rectangle
+
+from fsivsp.solvers import (
+    METHODS,
+    DirectSolver,
+    SolverError,
+    available_methods,
+    default_method,
+    free_mask,
+    is_symmetric,
+    to_scipy_csr,
+)
+
+ngs.ngsglobals.msg_level = 0
+
+
+# A copy of the small builder of benchmarks/solver_comparison.py (kept self-contained).
+def _mesh(level):
+    rect = Rectangle(2.5, 0.41).Face()
+    disk = Circle((0.2, 0.2), 0.05).Face()
+    solid = rect - disk
+    solid.faces.name = "solid"
+    disk.faces.name = "fluid"
+    solid.edges.name = "solid_wall"
+    disk.edges.name = "interface"
+    mesh = ngs.Mesh(OCCGeometry(Glue([solid, disk]), dim=2).GenerateMesh(maxh=0.15, grading=0.3))
+    for _ in range(level):
+        mesh.Refine()
+    return mesh
+
+
+def _system(mesh, **bfkwargs):
+    from ngsolve import CELL, VOL, H1, BilinearForm, Grad, InnerProduct, NodeId, Sym, VectorH1, div, dx
+
+    V = VectorH1(mesh, order=1, dirichlet="solid_wall")
+    for el in mesh.Elements(VOL):
+        if el.mat == "fluid":
+            V.SetOrder(NodeId(CELL, el.nr), 3)
+    V.Update()
+    Q = H1(mesh, order=1, definedon="fluid")
+    X = V * Q
+    (v, p), (w, q) = X.TnT()
+    dt, rho, nu, lam, mu = 1e-2, 1.0, 0.5, 1.0, 0.5
+
+    def eps(u):
+        return Sym(Grad(u))
+
+    a = BilinearForm(X, **bfkwargs)
+    a += rho * v * w * dx
+    a += 2 * nu * dt * InnerProduct(eps(v), eps(w)) * dx("fluid")
+    a += (2 * mu * dt**2 * InnerProduct(eps(v), eps(w)) + lam * dt**2 * div(v) * div(w)) * dx("solid")
+    a += (-dt * p * div(w) - dt * q * div(v)) * dx("fluid")
+    a.Assemble()
+    return X, a
+
+
+STORAGES = {
+    "symmetric": {"symmetric": True},
+    "nonsymmetric": {"symmetric": False},
+    "lower": {"symmetric": True, "symmetric_storage": True},
+}
+
+
+@pytest.fixture(scope="module")
+def meshes():
+    return {0: _mesh(0), 1: _mesh(1)}
+
+
+@pytest.fixture(scope="module")
+def systems(meshes):
+    cache = {}
+
+    def get(level=0, storage="symmetric"):
+        key = (level, storage)
+        if key not in cache:
+            cache[key] = _system(meshes[level], **STORAGES[storage])
+        return cache[key]
+
+    return get
+
+
+def _rhs(a, X, seed=7):
+    b = a.mat.CreateColVector()
+    b.FV().NumPy()[:] = np.random.default_rng(seed).standard_normal(len(b))
+    return b
+
+
+def _free_residual(a, X, b, x):
+    mask = free_mask(X.FreeDofs(), a.mat.height)
+    r = b.CreateVector()
+    r.data = b - a.mat * x
+    return np.linalg.norm(r.FV().NumPy()[mask]) / np.linalg.norm(b.FV().NumPy()[mask])
+
+
+def test_available_and_default():
+    avail = available_methods()
+    assert set(avail) <= set(METHODS)
+    # these ship with the NGSolve wheel and scipy
+    assert {"umfpack", "sparsecholesky", "scipy"} <= set(avail)
+    assert default_method() in avail
+    if "pardiso" in avail:
+        assert default_method() == "pardiso"
+    else:
+        assert default_method() == "umfpack"
+
+
+def test_unknown_method():
+    with pytest.raises(ValueError, match="unknown solver method"):
+        DirectSolver(ngs.la.SparseMatrixd.CreateFromCOO([0], [0], [1.0], 1, 1), None, method="nope")
+
+
+@pytest.mark.parametrize("storage", list(STORAGES))
+@pytest.mark.parametrize("level", [0, 1])
+@pytest.mark.parametrize("method", available_methods())
+def test_each_method_solves(systems, method, level, storage):
+    X, a = systems(level, storage)
+    solver = DirectSolver(a.mat, X.FreeDofs(), method=method, rtol=1e-10)
+    assert solver.method == method
+    assert solver.residual < 1e-10
+    assert solver.factor_seconds >= 0
+    b = _rhs(a, X)
+    x = a.mat.CreateColVector()
+    solver.solve(b, x)
+    assert _free_residual(a, X, b, x) < 1e-10
+    # non-free dofs are zero
+    mask = free_mask(X.FreeDofs(), a.mat.height)
+    assert not np.any(x.FV().NumPy()[~mask])
+
+
+@pytest.mark.parametrize("method", available_methods())
+def test_inverse_composes_and_is_deterministic(systems, method):
+    X, a = systems(1)
+    solver = DirectSolver(a.mat, X.FreeDofs(), method=method)
+    assert isinstance(solver.inverse, ngs.BaseMatrix)
+    b = _rhs(a, X, seed=3)
+    x1, x2, x3, x4 = (a.mat.CreateColVector() for _ in range(4))
+    x1.data = solver.inverse * b
+    x2.data = solver.inverse * b
+    x3.data = solver * b
+    solver.solve(b, x4)
+    ref = x1.FV().NumPy()
+    for x in (x2, x3, x4):
+        assert np.array_equal(ref, x.FV().NumPy())
+    # a second factorisation gives the identical result too
+    again = DirectSolver(a.mat, X.FreeDofs(), method=method)
+    y = a.mat.CreateColVector()
+    again.solve(b, y)
+    assert np.array_equal(ref, y.FV().NumPy())
+    assert again.residual == solver.residual
+
+
+@pytest.mark.parametrize("storage", ["symmetric", "lower"])
+def test_scipy_equals_ngsolve(systems, storage):
+    X, a = systems(1, storage)
+    b = _rhs(a, X, seed=11)
+    xs = a.mat.CreateColVector()
+    DirectSolver(a.mat, X.FreeDofs(), method="scipy").solve(b, xs)
+    for method in ("umfpack", "sparsecholesky", "pardiso"):
+        if method not in available_methods():
+            continue
+        xn = a.mat.CreateColVector()
+        DirectSolver(a.mat, X.FreeDofs(), method=method).solve(b, xn)
+        diff = np.linalg.norm(xs.FV().NumPy() - xn.FV().NumPy()) / np.linalg.norm(xn.FV().NumPy())
+        assert diff < 1e-10, (method, diff)
+
+
+def test_csr_conversion_symmetrises_lower_storage(systems):
+    import scipy.sparse as sp
+
+    X, full = systems(0, "symmetric")
+    _, lower = systems(0, "lower")
+    vals, cols, rowptr = lower.mat.CSR()
+    raw = sp.csr_matrix((np.array(vals), np.array(cols), np.array(rowptr)), shape=lower.mat.shape)
+    assert sp.triu(raw, 1).nnz == 0 and sp.tril(raw, -1).nnz > 0  # really only the lower triangle
+    A_lower = to_scipy_csr(lower.mat)
+    A_full = to_scipy_csr(full.mat)
+    assert abs(A_lower - A_full).max() < 1e-14 * abs(A_full).max()
+    assert abs(A_lower - A_lower.T).max() == 0
+    x = lower.mat.CreateColVector()
+    x.FV().NumPy()[:] = np.arange(len(x)) % 7 - 3.0
+    y = x.CreateVector()
+    y.data = lower.mat * x
+    assert np.allclose(A_lower @ x.FV().NumPy(), y.FV().NumPy(), rtol=0, atol=1e-13)
+
+
+def test_is_symmetric(systems):
+    _, a = systems(0, "symmetric")
+    _, lower = systems(0, "lower")
+    assert is_symmetric(a.mat) and is_symmetric(lower.mat)
+    nonsym = ngs.la.SparseMatrixd.CreateFromCOO([0, 0, 1, 1], [0, 1, 0, 1], [2.0, 1.0, 0.5, 2.0], 2, 2)
+    assert not is_symmetric(nonsym)
+
+
+def _nonsymmetric_matrix(n=30):
+    # nonsymmetric values on a symmetric pattern (like any FE matrix; NGSolve's
+    # pardiso wrapper rejects structurally nonsymmetric patterns)
+    rng = np.random.default_rng(0)
+    dense = rng.standard_normal((n, n)) + n * np.eye(n)
+    dense[(np.abs(dense) < 0.8) & (np.abs(dense.T) < 0.8)] = 0.0
+    rows, cols = np.nonzero(dense)
+    return ngs.la.SparseMatrixd.CreateFromCOO(rows.tolist(), cols.tolist(), dense[rows, cols].tolist(), n, n)
+
+
+def test_nonsymmetric_matrix_solved_correctly():
+    # a pivoting method must not assume symmetry (e.g. pardiso's symmetric type)
+    mat = _nonsymmetric_matrix()
+    assert not is_symmetric(mat)
+    for method in set(available_methods()) & {"pardiso", "umfpack", "scipy"}:
+        solver = DirectSolver(mat, None, method=method, rtol=1e-12)
+        assert solver.residual < 1e-12
+    # sparsecholesky silently uses one triangle: the residual check catches it
+    with pytest.raises(SolverError, match="sparsecholesky: residual check failed"):
+        DirectSolver(mat, None, method="sparsecholesky")
+
+
+def test_singular_matrix_raises(systems):
+    # all dofs "free": the pressure dofs outside the fluid and the Dirichlet rows
+    # without equations leave zero rows, so the matrix is singular
+    X, a = systems(0)
+    allfree = ngs.BitArray(a.mat.height)
+    allfree.Set()
+    for method in available_methods():
+        with pytest.raises(SolverError, match=method):
+            DirectSolver(a.mat, allfree, method=method)
+
+
+def test_sparsecholesky_breaks_down_on_zero_pivot():
+    # [[0, 1], [1, 0]] is symmetric indefinite: LDL^T without pivoting meets a zero pivot
+    mat = ngs.la.SparseMatrixd.CreateFromCOO([0, 0, 1, 1], [0, 1, 0, 1], [0.0, 1.0, 1.0, 0.0], 2, 2)
+    with pytest.raises(SolverError, match="sparsecholesky"):
+        DirectSolver(mat, None, method="sparsecholesky")
+    # the pivoting methods solve it
+    for method in set(available_methods()) & {"pardiso", "umfpack", "scipy"}:
+        assert DirectSolver(mat, None, method=method).residual < 1e-14
+
+
+def test_residual_check_reports_method_and_residual(systems):
+    X, a = systems(0)
+    with pytest.raises(SolverError, match=r"umfpack: residual check failed, .* = \d\.\d+e-\d+"):
+        DirectSolver(a.mat, X.FreeDofs(), method="umfpack", rtol=1e-30)
+    unchecked = DirectSolver(a.mat, X.FreeDofs(), method="umfpack", check=False)
+    assert np.isnan(unchecked.residual)
