@@ -77,12 +77,13 @@ def build_system(level: int = 0, symmetric: bool = True, symmetric_storage: bool
 
 
 # (label, method, options): "main" are the DirectSolver defaults, the rest tuning variants
+# "pardiso" is symmetric type -2, refinement 0, minimum degree (fsivsp.solvers.PARDISO_FLAGS);
+# "scipy" is splu with COLAMD (fsivsp.solvers.SCIPY_SPLU_OPTIONS)
 MAIN_VARIANTS = [(m, m, None) for m in ("sparsecholesky", "umfpack", "pardiso", "scipy")]
 TUNING_VARIANTS = [
     ("pardiso-ngsdefault", "pardiso", {"symmetric": False, "refinement": 16, "ordering": "minimum_degree"}),
     ("pardiso-sym-r16-metis", "pardiso", {"symmetric": True, "refinement": 16, "ordering": "metis"}),
     ("pardiso-sym-r0-metis", "pardiso", {"symmetric": True, "refinement": 0, "ordering": "metis"}),
-    ("pardiso-sym-r0-mindeg", "pardiso", {"symmetric": True, "refinement": 0, "ordering": "minimum_degree"}),
     ("pardiso-nonsym-r0", "pardiso", {"symmetric": False, "refinement": 0, "ordering": "metis"}),
     ("pardiso-sym-r0-pmetis", "pardiso", {"symmetric": True, "refinement": 0, "ordering": "parallel_metis"}),
     ("scipy-MMD_ATA", "scipy", {"permc_spec": "MMD_ATA", "diag_pivot_thresh": 1.0, "options": {}}),
@@ -103,61 +104,59 @@ def _time_solves(solve, nsolves: int) -> list[float]:
     return times
 
 
-def bench_variant(a, freedofs, label, method, options, nsolves, repeat=1):
-    """Factorise ``repeat`` times (each followed by ``nsolves`` timed solves); the
-    reported times are the minimum factor time and the minimum of the per-round
-    solve medians (robust against other load on the machine)."""
-    row = {"label": label, "method": method, "options": options,
-           "factor_s_all": [], "solve_median_s_all": [], "solve_mean_s_all": []}
-    b = a.mat.CreateColVector()
-    b.FV().NumPy()[:] = np.random.default_rng(1).standard_normal(len(b))
-    x = b.CreateVector()
-    for _ in range(repeat):
-        try:
-            solver = DirectSolver(a.mat, freedofs, method=method, options=options, check=True, rtol=1e-8)
-        except SolverError as exc:
-            row["error"] = str(exc)
-            return row
-        row["residual"] = solver.residual
-        row["factor_s_all"].append(solver.factor_seconds)
-        times = _time_solves(lambda: solver.solve(b, x), nsolves)
-        row["solve_median_s_all"].append(statistics.median(times))
-        row["solve_mean_s_all"].append(statistics.fmean(times))
-        del solver
-    row["factor_s"] = min(row["factor_s_all"])
-    row["solve_median_s"] = min(row["solve_median_s_all"])
-    row["solve_mean_s"] = min(row["solve_mean_s_all"])
+def _new_row(label, method, options):
+    return {"label": label, "method": method, "options": options,
+            "factor_s_all": [], "solve_median_s_all": [], "solve_mean_s_all": []}
+
+
+def _finish_row(row):
+    if row["factor_s_all"] and "error" not in row:
+        row["factor_s"] = min(row["factor_s_all"])
+        row["solve_median_s"] = min(row["solve_median_s_all"])
+        row["solve_mean_s"] = min(row["solve_mean_s_all"])
     return row
 
 
-def bench_pypardiso(a, freedofs, nsolves, repeat=1):
-    """pypardiso (the same MKL PARDISO, driven from scipy CSR) if importable."""
-    row = {"label": "pypardiso", "method": "pypardiso", "options": None}
+def bench_variant(row, a, freedofs, nsolves):
+    """One round: factorise, then ``nsolves`` timed solves; appended to ``row``."""
+    b = a.mat.CreateColVector()
+    b.FV().NumPy()[:] = np.random.default_rng(1).standard_normal(len(b))
+    x = b.CreateVector()
+    try:
+        solver = DirectSolver(a.mat, freedofs, method=row["method"], options=row["options"],
+                              check=True, rtol=1e-8)
+    except SolverError as exc:
+        row["error"] = str(exc)
+        return
+    row["residual"] = solver.residual
+    row["factor_s_all"].append(solver.factor_seconds)
+    times = _time_solves(lambda: solver.solve(b, x), nsolves)
+    row["solve_median_s_all"].append(statistics.median(times))
+    row["solve_mean_s_all"].append(statistics.fmean(times))
+
+
+def bench_pypardiso(row, a, freedofs, nsolves):
+    """pypardiso (the same MKL PARDISO, driven from scipy CSR; its defaults) if importable."""
     try:
         import pypardiso
     except ImportError as exc:
         row["error"] = f"not installed: {exc}"
-        return row
+        return
     from fsivsp.solvers import free_mask, to_scipy_csr
 
     mask = free_mask(freedofs, a.mat.height)
     A = to_scipy_csr(a.mat)[mask][:, mask].tocsr()
     rhs = np.random.default_rng(1).standard_normal(A.shape[0])
-    factor, medians, means = [], [], []
-    for _ in range(repeat):
-        ps = pypardiso.PyPardisoSolver(mtype=11)
-        t = time.perf_counter()
-        ps.factorize(A)
-        factor.append(time.perf_counter() - t)
-        x = ps.solve(A, rhs)
-        row["residual"] = float(np.linalg.norm(rhs - A @ x) / np.linalg.norm(rhs))
-        times = _time_solves(lambda: ps.solve(A, rhs), nsolves)
-        medians.append(statistics.median(times))
-        means.append(statistics.fmean(times))
-        ps.free_memory(everything=True)
-    row.update(factor_s=min(factor), solve_median_s=min(medians), solve_mean_s=min(means),
-               factor_s_all=factor, solve_median_s_all=medians)
-    return row
+    ps = pypardiso.PyPardisoSolver(mtype=11)
+    t = time.perf_counter()
+    ps.factorize(A)
+    row["factor_s_all"].append(time.perf_counter() - t)
+    x = ps.solve(A, rhs)
+    row["residual"] = float(np.linalg.norm(rhs - A @ x) / np.linalg.norm(rhs))
+    times = _time_solves(lambda: ps.solve(A, rhs), nsolves)
+    row["solve_median_s_all"].append(statistics.median(times))
+    row["solve_mean_s_all"].append(statistics.fmean(times))
+    ps.free_memory(everything=True)
 
 
 def run(levels, variants, nsolves, taskmanager, symmetric_storage, pypardiso, repeat=1):
@@ -188,15 +187,25 @@ def run(levels, variants, nsolves, taskmanager, symmetric_storage, pypardiso, re
             from pyngcore import GetNumThreads
 
             info["threads"] = GetNumThreads()
-            for label, method, options in variants:
-                if method not in results["available_methods"]:
-                    info["rows"].append({"label": label, "method": method, "error": "not available"})
-                    continue
-                info["rows"].append(bench_variant(a, fd, label, method, options, nsolves, repeat))
-                print("  " + _fmt_row(info["rows"][-1]), flush=True)
+            rows = [_new_row(*v) for v in variants]
             if pypardiso:
-                info["rows"].append(bench_pypardiso(a, fd, nsolves, repeat))
-                print("  " + _fmt_row(info["rows"][-1]), flush=True)
+                rows.append(_new_row("pypardiso", "pypardiso", None))
+            for row in rows:
+                if row["method"] not in results["available_methods"] + ["pypardiso"]:
+                    row["error"] = "not available"
+            # rounds interleave the variants, so that other load on the machine
+            # hits all of them alike; the minimum over the rounds is reported
+            for _ in range(repeat):
+                for row in rows:
+                    if "error" in row:
+                        continue
+                    if row["method"] == "pypardiso":
+                        bench_pypardiso(row, a, fd, nsolves)
+                    else:
+                        bench_variant(row, a, fd, nsolves)
+            for row in rows:
+                info["rows"].append(_finish_row(row))
+                print("  " + _fmt_row(row), flush=True)
         finally:
             if ctx is not None:
                 ctx.__exit__(None, None, None)

@@ -352,7 +352,7 @@ class _Parser:
                     if av == 0:
                         raise self.error("division by zero")
                     raise self.error(
-                        f"{_float_text(av)}**{_float_text(bv)} is not a real number"
+                        f"({_float_text(av)})**({_float_text(bv)}) is not a real number"
                     )
                 self.check_value(value)
                 if _has_function(a) or _has_function(b):
@@ -432,9 +432,10 @@ def parse(text: str, field: str, dim: int = 3) -> sympy.Expr:
 def parse_vector(items: Any, field: str, dim: int) -> list[sympy.Expr]:
     """Parse a list of exactly ``dim`` expressions; errors name ``field[i]``."""
     if isinstance(items, (str, bytes)) or not isinstance(items, Sequence) or len(items) != dim:
-        got = _show(str(items), 60) if not isinstance(items, Sequence) or isinstance(
-            items, (str, bytes)
-        ) else f"{len(items)} items"
+        if isinstance(items, Sequence) and not isinstance(items, (str, bytes)):
+            got = f"{len(items)} item{'s' if len(items) != 1 else ''}"
+        else:
+            got = _show(str(items), 60)
         raise ExpressionError(f"{field}: expected a list of {dim} expressions, got {got}")
     return [parse(item, f"{field}[{i}]", dim) for i, item in enumerate(items)]
 
@@ -892,12 +893,22 @@ def _separate(expr: sympy.Expr) -> _Terms | None:
         return acc
     if isinstance(expr, sympy.Pow):
         base, exponent = expr.args
-        if exponent.is_Integer and int(exponent) > 0 and _kind(exponent) == "const":
+        if exponent.is_Integer and int(exponent) > 0:
+            n = int(exponent)
+            split = _split_sum(base)
+            if split is not None:  # binomial theorem, keeping A(t)**k and B(x)**(n-k) whole
+                a, b = split
+                out = {}
+                for k in range(n + 1):
+                    c1, tm = _normalize(a**k)
+                    c2, sm = _normalize(b ** (n - k))
+                    _add_into(out, (tm, sm), sympy.binomial(n, k) * c1 * c2)
+                return out
             part = _separate(base)
             if part is None:
                 return None
             acc = part
-            for _ in range(int(exponent) - 1):
+            for _ in range(n - 1):
                 acc = _product(acc, part)
                 if acc is None:
                     return None

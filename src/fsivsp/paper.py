@@ -21,7 +21,7 @@ TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
 T_FINAL = 1.0
 
 
-def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = True,
+def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
                solver: str | None = None) -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt``."""
     return Case(
