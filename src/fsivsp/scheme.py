@@ -192,9 +192,17 @@ class BackwardEuler:
     def step(self) -> None:
         """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then
         σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)) exactly (condition (18))."""
-        dt, time = self.dt, self.time + self.dt
-        rhs, boundary, x = self._rhs, self._boundary, self.state.vec
-        rhs.data = self._mass * x
+        time = self.time + self.dt
+        self.right_hand_side(time)
+        self.solve()
+        self.update_stress()
+        self.time, self.n = time, self.n + 1
+
+    def right_hand_side(self, time: float) -> None:
+        """Step 1's right-hand side, Δt f(tₙ) + ρ vⁿ⁻¹ − Δt σⁿ⁻¹:ε(·), minus the lift of the
+        Dirichlet values vⁿ|∂Ω; the lift itself is kept in the boundary vector."""
+        dt, rhs, boundary = self.dt, self._rhs, self._boundary
+        rhs.data = self._mass * self.state.vec
         rhs.data -= dt * (self._divergence * self.stress.vec)
         for load in self._loads:
             load.add_to(rhs, time, dt)
@@ -202,13 +210,18 @@ class BackwardEuler:
         for values in self._dirichlet:
             values.add_to(boundary, time)
         rhs.data -= self._matrix * boundary
-        x.data = boundary
-        x.data += self.solver.inverse * rhs
-        self._stress_rate.data = self._stress_inverse * (self._rate * x)
-        self.stress.vec.data += dt * self._stress_rate
+
+    def solve(self) -> None:
+        """(vⁿ, pⁿ) = lift + A_ff⁻¹ rhs with the factorisation computed once."""
+        self.state.vec.data = self._boundary
+        self.state.vec.data += self.solver.inverse * self._rhs
+
+    def update_stress(self) -> None:
+        """Step 2 of (5.1), and the displacement (5) if tracked."""
+        self._stress_rate.data = self._stress_inverse * (self._rate * self.state.vec)
+        self.stress.vec.data += self.dt * self._stress_rate
         if self.displacement is not None:
-            self.displacement.vec.data += dt * self.velocity.vec
-        self.time, self.n = time, self.n + 1
+            self.displacement.vec.data += self.dt * self.velocity.vec
 
     def energy(self) -> float:
         """½∫ρ|vⁿ|² + ½∫_S Aσⁿ:σⁿ; non-increasing when f = 0 and the boundary is at rest."""

@@ -1,0 +1,66 @@
+"""Properties of the scheme (5.1) beyond the paper's tables: energy, displacement recovery (5),
+one factorisation per run."""
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+from fsivsp import forms
+from fsivsp.fields import Field
+from fsivsp.expressions import parse_vector
+from fsivsp.geometry import SOLID
+from fsivsp.materials import Materials
+from fsivsp.scheme import BackwardEuler, Data
+from fsivsp.spaces import build_spaces
+
+
+@pytest.fixture(scope="module")
+def spaces(paper_meshes):
+    return build_spaces(paper_meshes[1], "mini", dirichlet="solid_wall")
+
+
+def bump(dim=2):
+    """A smooth field vanishing on the channel walls."""
+    return Field(parse_vector(["sin(pi*x/2.5)*sin(pi*y/0.41)", "0"], "bump", dim))
+
+
+def test_energy_does_not_increase_without_forcing(spaces):
+    """Backward Euler dissipates: ½∫ρ|vⁿ|² + ½∫_S Aσⁿ:σⁿ is non-increasing when f = 0."""
+    scheme = BackwardEuler(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
+    energies = [scheme.energy()]
+    for _ in range(30):
+        scheme.step()
+        energies.append(scheme.energy())
+    assert energies[0] > 0
+    assert all(b <= a * (1 + 1e-12) for a, b in zip(energies, energies[1:]))
+    assert energies[-1] < 0.999 * energies[0]
+
+
+def test_displacement_recovery_matches_the_stress(spaces):
+    """With σ⁰ from I_h u⁰ and u_hⁿ = u_h⁰ + Δt Σ v^m (5), σⁿ = λ div uⁿ I + 2μ ε(uⁿ) in Ω_S."""
+    mat = Materials(lam=2.0, mu=0.7)
+    scheme = BackwardEuler(spaces, mat, Data(velocity0=bump(), displacement0=bump()), dt=1e-2,
+                           track_displacement=True)
+    for _ in range(5):
+        scheme.step()
+    diff = scheme.stress - forms.elastic_stress(scheme.displacement, mat, 2)
+    size = scheme.stress
+    mesh = spaces.mesh
+    defect = ngs.Integrate(ngs.InnerProduct(diff, diff), mesh, definedon=mesh.Materials(SOLID))
+    norm = ngs.Integrate(ngs.InnerProduct(size, size), mesh, definedon=mesh.Materials(SOLID))
+    assert norm > 0 and defect < 1e-20 * max(norm, 1.0)
+
+
+def test_the_step_matrix_is_factorised_once(spaces, monkeypatch):
+    """The time loop applies precomputed operators only: no assembly, no factorisation."""
+    scheme = BackwardEuler(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
+    calls = []
+    monkeypatch.setattr(ngs.BilinearForm, "Assemble", lambda *a, **k: calls.append("assemble"))
+    monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
+    for _ in range(3):
+        scheme.step()
+    assert calls == []
+
+
+def test_negative_time_step_is_refused(spaces):
+    with pytest.raises(ValueError, match="dt"):
+        BackwardEuler(spaces, Materials(), Data(velocity0=bump()), dt=-1.0)
