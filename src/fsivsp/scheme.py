@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+import scipy.sparse as sp
 import ngsolve as ngs
 from ngsolve import InnerProduct, dx, ds
 
@@ -57,6 +58,27 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
     return gf
 
 
+def to_scipy(matrix: ngs.BaseMatrix) -> sp.csr_matrix:
+    values, cols, rows = matrix.CSR()
+    return sp.csr_matrix((np.array(values), np.array(cols), np.array(rows)), shape=(matrix.height, matrix.width))
+
+
+def to_ngsolve(matrix: sp.spmatrix) -> ngs.BaseMatrix:
+    coo = matrix.tocoo()
+    return ngs.la.SparseMatrixd.CreateFromCOO(coo.row.tolist(), coo.col.tolist(), coo.data.tolist(),
+                                               matrix.shape[0], matrix.shape[1])
+
+
+def block_inverse(mass: ngs.BaseMatrix, space: ngs.FESpace) -> ngs.BaseMatrix:
+    """The inverse of the mass matrix of a discontinuous space, one dense block per cell."""
+    cells = np.array([el.dofs for el in space.Elements(ngs.VOL) if len(el.dofs) and min(el.dofs) >= 0])
+    n, size = cells.shape
+    rows = np.repeat(cells, size, axis=1).reshape(n, size, size)
+    cols = np.tile(cells, size).reshape(n, size, size)
+    blocks = np.linalg.inv(np.asarray(to_scipy(mass)[rows.ravel(), cols.ravel()]).reshape(n, size, size))
+    return to_ngsolve(sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(mass.height, mass.width)))
+
+
 class BackwardEuler:
     """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1)."""
 
@@ -73,12 +95,12 @@ class BackwardEuler:
         self._mass = forms.velocity_mass(spaces, materials).Assemble().mat
         self._divergence = forms.stress_divergence(spaces).Assemble().mat
         self._rate = forms.stress_rate(spaces, materials).Assemble().mat
-        stress_mass = forms.stress_mass(spaces).Assemble().mat
-        self._stress_inverse = stress_mass.Inverse(S.FreeDofs(), inverse="sparsecholesky")
+        self._stress_inverse = block_inverse(forms.stress_mass(spaces).Assemble().mat, S)
+        self._stress_update = to_ngsolve(to_scipy(self._stress_inverse) @ to_scipy(self._rate))
         self._compliance = self._compliance_matrix()
 
         self._loads = self._load_vectors()
-        self._dirichlet = self._dirichlet_vectors()
+        self._dirichlet, self._lifts = self._dirichlet_vectors()
 
         self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ)
         self.stress = ngs.GridFunction(S)      # σⁿ
@@ -87,7 +109,6 @@ class BackwardEuler:
         self.time, self.n = 0.0, 0
         self._rhs = self.state.vec.CreateVector()
         self._boundary = self.state.vec.CreateVector()
-        self._stress_rate = self.stress.vec.CreateVector()
         self._work = self.state.vec.CreateVector()
         self.initialise()
 
@@ -122,12 +143,13 @@ class BackwardEuler:
                                                       ds(INTERFACE, bonus_intorder=order))))
         return loads
 
-    def _dirichlet_vectors(self) -> list[TimeVector]:
-        """Boundary values of the velocity, each dof owned by the first boundary naming it."""
+    def _dirichlet_vectors(self) -> tuple[list[TimeVector], list[TimeVector]]:
+        """Boundary values g(t) of the velocity (each dof owned by the first boundary naming it)
+        and their images A g(t) under the step matrix, which lift them into the right-hand side."""
         mesh, V = self.spaces.mesh, self.spaces.velocity
         owned = ngs.BitArray(self.spaces.mixed.ndof)
         owned.Clear()
-        vectors = []
+        vectors, lifts = [], []
         for names, values in self.data.boundary_velocity.items():
             region = mesh.Boundaries(names)
             mine = ngs.BitArray(self.spaces.mixed.ndof)
@@ -138,8 +160,19 @@ class BackwardEuler:
                         if dof >= 0 and not owned[dof]:
                             mine.Set(dof)
             owned = owned | mine
-            vectors.append(TimeVector(values, self._boundary_image(region, mine)))
-        return vectors
+            image = self._boundary_image(region, mine)
+            vectors.append(TimeVector(values, image))
+            lifts.append(TimeVector(values, lambda cf, image=image: self._lift(image(cf))))
+        return vectors, lifts
+
+    def _lift(self, boundary_values: Callable) -> Callable:
+        lifted = self._matrix.CreateColVector()
+
+        def compute():
+            lifted.data = self._matrix * boundary_values()
+            return lifted
+
+        return compute
 
     def _boundary_image(self, region, mine: ngs.BitArray) -> Callable:
         def image(cf):
@@ -206,10 +239,11 @@ class BackwardEuler:
         rhs.data -= dt * (self._divergence * self.stress.vec)
         for load in self._loads:
             load.add_to(rhs, time, dt)
+        for lift in self._lifts:
+            lift.add_to(rhs, time, -1.0)
         boundary[:] = 0.0
         for values in self._dirichlet:
             values.add_to(boundary, time)
-        rhs.data -= self._matrix * boundary
 
     def solve(self) -> None:
         """(vⁿ, pⁿ) = lift + A_ff⁻¹ rhs with the factorisation computed once."""
@@ -218,8 +252,7 @@ class BackwardEuler:
 
     def update_stress(self) -> None:
         """Step 2 of (5.1), and the displacement (5) if tracked."""
-        self._stress_rate.data = self._stress_inverse * (self._rate * self.state.vec)
-        self.stress.vec.data += self.dt * self._stress_rate
+        self.stress.vec.data += self.dt * (self._stress_update * self.state.vec)
         if self.displacement is not None:
             self.displacement.vec.data += self.dt * self.velocity.vec
 

@@ -1,0 +1,107 @@
+"""Timings of the scheme on the paper's experiment, per refinement level.
+
+Per level: assembly and factorisation (once per run), one time step split into its
+right-hand side, solve, stress update and error norms (medians over the run), the whole
+run, and a baseline that re-assembles and re-factorises every step as a straightforward
+code would. Prints the ratios and writes JSON.
+
+    python benchmarks/scheme_timings.py --levels 0-4 --dt 1e-2 --json benchmarks/scheme_timings.json
+"""
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import time
+
+import ngsolve as ngs
+
+from fsivsp import forms
+from fsivsp.cli import levels_arg
+from fsivsp.geometry import refined
+from fsivsp.paper import paper_case
+from fsivsp.report import write_json
+from fsivsp.scheme import BackwardEuler
+from fsivsp.solvers import DirectSolver
+from fsivsp.spaces import build_spaces
+from fsivsp.study import dirichlet_boundaries, error_norms, manufactured_data
+
+
+def timed(fn) -> float:
+    start = time.perf_counter()
+    fn()
+    return time.perf_counter() - start
+
+
+def baseline_step(scheme: BackwardEuler) -> float:
+    """One step of a code that assembles and factorises everything at every step."""
+    spaces, mat, dt = scheme.spaces, scheme.materials, scheme.dt
+
+    def step():
+        matrix = forms.step_matrix(spaces, mat, dt).Assemble().mat
+        for form in (forms.velocity_mass(spaces, mat), forms.stress_divergence(spaces),
+                     forms.stress_rate(spaces, mat), forms.stress_mass(spaces)):
+            form.Assemble()
+        DirectSolver(matrix, spaces.mixed.FreeDofs(), method=scheme.solver.method, check=False)
+        scheme.step()
+
+    return timed(step)
+
+
+def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
+    case = paper_case(dt, solver=solver)
+    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    dirichlet = dirichlet_boundaries(mesh)
+    start = time.perf_counter()
+    spaces = build_spaces(mesh, "mini", 1, dirichlet)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
+    scheme = BackwardEuler(spaces, case.materials, data, dt, solver=solver)
+    setup = time.perf_counter() - start
+    norms = error_norms(spaces, case.exact, case.materials)
+    parts = {"rhs": [], "solve": [], "stress": [], "norms": [], "step": []}
+    run_start = time.perf_counter()
+    for _ in range(steps):
+        t = scheme.time + dt
+        a = timed(lambda: scheme.right_hand_side(t))
+        b = timed(scheme.solve)
+        c = timed(scheme.update_stress)
+        scheme.time, scheme.n = t, scheme.n + 1
+        d = timed(lambda: [norm(scheme.stress.vec if k == "sigma" else scheme.state.vec, t) for k, norm in norms.items()])
+        for key, value in zip(("rhs", "solve", "stress", "norms", "step"), (a, b, c, d, a + b + c + d)):
+            parts[key].append(value)
+    run = time.perf_counter() - run_start
+    median = {key: statistics.median(values) for key, values in parts.items()}
+    baseline = statistics.median(baseline_step(scheme) for _ in range(3))
+    return {
+        "level": level, "vertices": mesh.nv, "dofs": spaces.free_dofs(), "solver": scheme.solver.method,
+        "assembly": setup - scheme.solver.factor_seconds, "factorisation": scheme.solver.factor_seconds,
+        "step": median, "run": run, "steps": steps, "baseline_step": baseline,
+        "overhead_over_solve": (median["step"] - median["solve"]) / median["solve"],
+        "speedup_vs_baseline": baseline / median["step"],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", type=levels_arg, default=range(0, 5))
+    parser.add_argument("--dt", type=float, default=1e-2)
+    parser.add_argument("--solver", default=None)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args()
+    steps = round(1.0 / args.dt)
+    rows = [measure(level, args.dt, steps, args.solver) for level in args.levels]
+    print(f"machine: {platform.machine()}, {platform.processor() or 'cpu'}, ngsolve {ngs.__version__}; "
+          f"dt = {args.dt:g}, {steps} steps")
+    print(f"{'level':>5} {'dofs':>7} {'solver':>14} {'assembly':>9} {'factor':>8} {'rhs':>9} {'solve':>9} "
+          f"{'stress':>9} {'norms':>9} {'step':>9} {'run':>8} {'(step-solve)/solve':>19} {'baseline/step':>14}")
+    for r in rows:
+        s = r["step"]
+        print(f"{r['level']:>5} {r['dofs']:>7} {r['solver']:>14} {r['assembly']:>9.4f} {r['factorisation']:>8.4f} "
+              f"{s['rhs']:>9.2e} {s['solve']:>9.2e} {s['stress']:>9.2e} {s['norms']:>9.2e} {s['step']:>9.2e} "
+              f"{r['run']:>8.2f} {r['overhead_over_solve']:>19.3f} {r['speedup_vs_baseline']:>14.1f}")
+    if args.json:
+        write_json(args.json, {"dt": args.dt, "machine": platform.platform(), "levels": rows})
+
+
+if __name__ == "__main__":
+    main()
