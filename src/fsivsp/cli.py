@@ -30,33 +30,33 @@ def levels_arg(text: str) -> range:
             raise ValueError
         low, high = int(parts[0]), int(parts[-1])
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--levels: expected A-B or A with whole numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected A-B or A with whole numbers, got {text!r}") from None
     if not 0 <= low <= high <= MAX_LEVEL:
         raise argparse.ArgumentTypeError(
-            f"--levels: expected 0 <= A <= B <= {MAX_LEVEL}, got {text!r}")
+            f"expected 0 <= A <= B <= {MAX_LEVEL}, got {text!r}")
     return range(low, high + 1)
 
 
-def positive_float(name: str):
+def positive_float():
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected a positive number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
         if not value > 0 or value == float("inf"):
-            raise argparse.ArgumentTypeError(f"{name}: expected a positive number, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
         return value
     return parse
 
 
-def positive_int(name: str):
+def positive_int():
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{name}: expected a positive whole number, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}") from None
         if value < 1:
-            raise argparse.ArgumentTypeError(f"{name}: expected a positive whole number, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
         return value
     return parse
 
@@ -71,7 +71,7 @@ def build_parser() -> Parser:
     paper = commands.add_parser("paper", help="reproduce the experiment of Section 5.3 (Tables 1–8)",
                                 description="Run the paper's experiment (MINI element, backward Euler, T = 1) "
                                 "on uniformly refined meshes and print errors and rates next to the paper's.")
-    paper.add_argument("--dt", type=positive_float("--dt"), default=1e-2, help="time step (default 1e-2)")
+    paper.add_argument("--dt", type=positive_float(), default=1e-2, help="time step (default 1e-2)")
     paper.add_argument("--levels", type=levels_arg, default=range(0, 5),
                        help="refinement levels, 'A-B' or 'A' (default 0-4)")
     paper.add_argument("--all", action="store_true",
@@ -85,7 +85,7 @@ def build_parser() -> Parser:
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
     paper.add_argument("--out", type=Path, default=Path("paper-report"), metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
-    paper.add_argument("--jobs", type=positive_int("--jobs"), default=os.cpu_count() or 1,
+    paper.add_argument("--jobs", type=positive_int(), default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
     paper.set_defaults(handler=paper_command)
