@@ -148,12 +148,18 @@ def test_inverse_composes_and_is_deterministic(systems, method):
     ref = x1.FV().NumPy()
     for x in (x2, x3, x4):
         assert np.array_equal(ref, x.FV().NumPy())
-    # a second factorisation gives the identical result too
+    # a second factorisation gives the identical result too, except for NGSolve's
+    # sparsecholesky, whose factorisation differs between calls in the last bits
+    # (measured: relative differences ~5e-16; under a TaskManager even two solves
+    # with one factorisation differ)
     again = DirectSolver(a.mat, X.FreeDofs(), method=method)
     y = a.mat.CreateColVector()
     again.solve(b, y)
-    assert np.array_equal(ref, y.FV().NumPy())
-    assert again.residual == solver.residual
+    if method == "sparsecholesky":
+        assert np.linalg.norm(ref - y.FV().NumPy()) <= 1e-13 * np.linalg.norm(ref)
+    else:
+        assert np.array_equal(ref, y.FV().NumPy())
+        assert again.residual == solver.residual
 
 
 @pytest.mark.parametrize("storage", ["symmetric", "lower"])
@@ -247,3 +253,18 @@ def test_residual_check_reports_method_and_residual(systems):
         DirectSolver(a.mat, X.FreeDofs(), method="umfpack", rtol=1e-30)
     unchecked = DirectSolver(a.mat, X.FreeDofs(), method="umfpack", check=False)
     assert np.isnan(unchecked.residual)
+
+
+@pytest.mark.parametrize("method", available_methods())
+def test_lower_storage_spd(method):
+    # NGSolve's own UMFPACK inverse silently solves with the lower triangle only on
+    # symmetric storage (residual ~1 on this SPD matrix); DirectSolver must not
+    from netgen.geom2d import unit_square
+
+    mesh = ngs.Mesh(unit_square.GenerateMesh(maxh=0.3))
+    V = ngs.H1(mesh, order=1)
+    u, v = V.TnT()
+    a = ngs.BilinearForm(V, symmetric=True, symmetric_storage=True)
+    a += (u * v + ngs.grad(u) * ngs.grad(v)) * ngs.dx
+    a.Assemble()
+    assert DirectSolver(a.mat, V.FreeDofs(), method=method).residual < 1e-12

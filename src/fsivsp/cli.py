@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 
 from . import __version__
+from .case import CaseError
+from .geometry import GeometryError
 
 MAX_LEVEL = 6
 
@@ -89,6 +91,15 @@ def build_parser() -> Parser:
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
     paper.set_defaults(handler=paper_command)
+
+    study = commands.add_parser("study", help="convergence study of a manufactured solution from a case file",
+                                description="Uniform refinement study of the case file's [exact] solution: errors in "
+                                "the paper's norms and rates (76) generalised to d dimensions.")
+    study.add_argument("case", type=Path, metavar="CASE.toml", help="case file with an [exact] section")
+    study.add_argument("--levels", type=levels_arg, default=range(0, 3), help="refinement levels, 'A-B' or 'A' (default 0-2)")
+    study.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
+    study.add_argument("--quiet", action="store_true", help="no progress bars")
+    study.set_defaults(handler=study_command)
     return parser
 
 
@@ -165,6 +176,22 @@ def paper_command(args) -> int:
     return 0
 
 
+def study_command(args) -> int:
+    from .case import load_study_case, to_study
+    from .report import error_table, rate_table, write_json
+    from .study import study
+
+    case = to_study(load_study_case(args.case))
+    records = study(case, args.levels, quiet=args.quiet)
+    label = f"{case.name}: {case.family}{'' if case.family == 'mini' else case.order}, dt = {case.dt:g}, T = {case.T:g}"
+    print(f"{label}\n{error_table(records)}")
+    if len(records) > 1:
+        print(f"\nrates (76)\n{rate_table(records)}")
+    if args.json:
+        write_json(args.json, records)
+    return 0
+
+
 def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
     """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
     from tqdm.auto import tqdm
@@ -181,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parser.parse_args(argv)
         return args.handler(args)
-    except UsageError as error:
+    except (UsageError, CaseError, GeometryError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -3,8 +3,9 @@
 Given the global velocity v (continuous across Γ), the fluid pressure p and the solid
 displacement u with ∂t u = v in Ω_S, the stresses are σ_F = −pI + 2νε(v),
 σ_S = λ div(u) I + 2μ ε(u), the body forces f = ρ ∂t v − div σ in each region,
-and the interface traction jump g = (σ_S − σ_F) n (n from Ω_F into Ω_S), which the
-scheme adds to the right-hand side as ∫_Γ g·w.
+and the interface load g = (σ_F − σ_S) n = (σ_S − σ_F) n_S (n from Ω_F into Ω_S, n_S = −n the
+solid's outer normal), which the scheme adds to the right-hand side as ∫_Γ g·w: integrating
+ρ∂t v − div σ = f by parts in each region leaves exactly this term where σ_F n ≠ σ_S n.
 """
 from __future__ import annotations
 
@@ -90,9 +91,9 @@ class ExactSolution:
         """f_S = ρ_S ∂t v − div σ_S."""
         return self._force(mat.rho_solid, self.solid_stress(mat))
 
-    def interface_jump(self, mat: Materials) -> sympy.Matrix:
-        """σ_S − σ_F; the interface load is g = (σ_S − σ_F) n."""
-        return (self.solid_stress(mat) - self.fluid_stress(mat)).applyfunc(sympy.expand)
+    def interface_load(self, mat: Materials) -> sympy.Matrix:
+        """σ_F − σ_S; the interface load is g = (σ_F − σ_S) n, n from Ω_F into Ω_S."""
+        return (self.fluid_stress(mat) - self.solid_stress(mat)).applyfunc(sympy.expand)
 
     def at_time(self, time: float) -> "ExactSolution":
         sub = lambda e: e.subs(T, time)

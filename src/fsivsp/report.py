@@ -33,7 +33,7 @@ def error_table(records: list[dict], reference: list[dict] | None = None, markdo
         rows.append([
             str(rec["level"]),
             _pair(rec["vertices"], theirs and theirs["vertices"], "d"),
-            _pair(rec.get("paper_dofs") or rec["dofs"], theirs and theirs["dofs"], "d"),
+            _pair(rec["paper_dofs"] if reference else rec["dofs"], theirs and theirs["dofs"], "d"),
         ] + [_pair(rec["errors"][k], theirs and theirs["errors"].get(k), ".6f") for k in keys])
     return _layout(head, rows, markdown)
 

@@ -29,8 +29,9 @@ class Data:
     """Data of the model (1)–(3) as fields of x, y, z, t.
 
     ``boundary_velocity`` maps boundary names (``"a|b"`` allowed) to Dirichlet data,
-    ``boundary_traction`` to prescribed σn, ``interface_jump`` is a tensor J whose
-    traction J n (n from Ω_F into Ω_S) loads Γ. The initial stress is built from
+    ``boundary_traction`` to prescribed σn, ``interface_load`` is a tensor J whose
+    traction J n (n from Ω_F into Ω_S) loads Γ as ∫_Γ J n·w (for a manufactured
+    solution J = σ_F − σ_S, see `manufactured`). The initial stress is built from
     ``displacement0`` (σ⁰ = λ div(I_h u⁰) I + 2μ ε(I_h u⁰), the paper's experiment) or,
     if given, is the L² projection (26) of ``stress0``.
     """
@@ -42,7 +43,7 @@ class Data:
     force_solid: Field | None = None
     boundary_velocity: dict[str, Field] = field(default_factory=dict)
     boundary_traction: dict[str, Field] = field(default_factory=dict)
-    interface_jump: Field | None = None
+    interface_load: Field | None = None
 
 
 def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
@@ -136,9 +137,9 @@ class BackwardEuler:
             loads.append(TimeVector(d.force_solid, self._linear_form(dot, dx(SOLID, bonus_intorder=order))))
         for name, traction in d.boundary_traction.items():
             loads.append(TimeVector(traction, self._linear_form(dot, ds(name, bonus_intorder=order))))
-        if d.interface_jump is not None and not d.interface_jump.is_zero():
+        if d.interface_load is not None and not d.interface_load.is_zero():
             n = interface_normal(mesh)
-            loads.append(TimeVector(d.interface_jump,
+            loads.append(TimeVector(d.interface_load,
                                     self._linear_form(lambda J, w: InnerProduct(J * n, w),
                                                       ds(INTERFACE, bonus_intorder=order))))
         return loads

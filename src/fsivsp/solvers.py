@@ -50,8 +50,8 @@ __all__ = [
     "to_scipy_csr",
 ]
 
-#: All methods :class:`DirectSolver` knows, in order of preference (fastest first,
-#: as measured on the scheme's matrix; see benchmarks/solver_comparison.md).
+#: All methods :class:`DirectSolver` knows (:func:`default_method` picks the first
+#: available of pardiso, umfpack, scipy, sparsecholesky).
 METHODS: tuple[str, ...] = ("pardiso", "umfpack", "sparsecholesky", "scipy")
 
 #: Methods whose factorisation pivots, i.e. is safe on symmetric indefinite matrices.
@@ -339,6 +339,7 @@ class DirectSolver:
         self.freedofs = freedofs
         self.rtol = rtol
         self.residual = float("nan")
+        self.factor_seconds = float("nan")
 
         start = time.perf_counter()
         try:
@@ -353,8 +354,9 @@ class DirectSolver:
                 flags = Flags(opts) if opts else None
                 target = matrix
                 if method == "umfpack" and _stores_lower_triangle(matrix):
-                    # NGSolve's UMFPACK takes the stored lower triangle for the whole
-                    # matrix (fails or solves a wrong system): factorise a full copy
+                    # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the
+                    # whole matrix: it fails (saddle point) or silently solves a wrong
+                    # system (SPD: residual ~1). Factorise a full-storage copy instead.
                     target = full_storage_copy(matrix)
                 self.inverse = target.Inverse(freedofs, inverse=method, flags=flags)
                 self._factored_matrix = target

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 import ngsolve as ngs
@@ -36,7 +36,7 @@ class Case:
     initial_stress: str = "displacement"
     project_refinement: bool = True
     solver: str | None = None
-    extra: dict = field(default_factory=dict)
+    curved: bool = False
 
     @property
     def steps(self) -> int:
@@ -60,7 +60,7 @@ def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, init
         force_fluid=Field(exact.fluid_force(mat)),
         force_solid=Field(exact.solid_force(mat)),
         boundary_velocity={dirichlet: Field(exact.velocity)} if dirichlet else {},
-        interface_jump=Field(exact.interface_jump(mat)),
+        interface_load=Field(exact.interface_load(mat)),
     )
 
 
@@ -85,6 +85,8 @@ def paper_dofs(counts: dict[str, int]) -> int:
 def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
     """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
     check_regions(mesh)
+    if case.curved:
+        mesh.Curve(case.order + 1 if case.family == "taylor_hood" else 1)
     start = clock.perf_counter()
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress)

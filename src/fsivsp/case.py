@@ -1,0 +1,196 @@
+"""Case files (TOML): reading and validating every field before any heavy work.
+
+Every problem with a case file is a `CaseError` whose message is one line naming the
+field and what was expected, e.g. ``materials.mu: expected a positive number, got -1``.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .materials import Materials
+from .spaces import FAMILIES
+
+SECTIONS = {
+    "geometry": None,  # free-form parameters, checked by the geometry builder
+    "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
+    "time": {"T", "dt"},
+    "discretisation": {"family", "order", "initial_stress", "solver", "curved"},
+    "exact": {"velocity", "pressure", "displacement"},
+}
+ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
+
+
+class CaseError(ValueError):
+    """A case file that cannot be run; one line naming the field."""
+
+
+def _suggest(word: str, options) -> str:
+    close = difflib.get_close_matches(word, sorted(options), n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ""
+
+
+def check_keys(table: dict, allowed, where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise CaseError(f"{where}.{key}: unknown key{_suggest(key, allowed)}; expected one of {', '.join(sorted(allowed))}"
+                            if where else f"{key}: unknown section{_suggest(key, allowed)}; expected one of {', '.join(sorted(allowed))}")
+
+
+def number(table: dict, key: str, where: str, default=None, minimum: float | None = None, strict: bool = True) -> float:
+    """A finite real number, > minimum (or ≥ if not strict)."""
+    if key not in table:
+        if default is None:
+            raise CaseError(f"{where}.{key}: missing; expected a number")
+        return default
+    value = table[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise CaseError(f"{where}.{key}: expected a number, got {value!r}")
+    if minimum is not None and (value <= minimum if strict else value < minimum):
+        what = "a positive number" if minimum == 0 and strict else f"a number {'>' if strict else '>='} {minimum:g}"
+        raise CaseError(f"{where}.{key}: expected {what}, got {value!r}")
+    return float(value)
+
+
+def choice(table: dict, key: str, where: str, options, default):
+    value = table.get(key, default)
+    if value not in options:
+        raise CaseError(f"{where}.{key}: expected one of {', '.join(map(str, options))}, got {value!r}")
+    return value
+
+
+def read_toml(path: str | Path) -> dict:
+    path = Path(path)
+    if not path.is_file():
+        raise CaseError(f"{path}: no such case file")
+    try:
+        return tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise CaseError(f"{path}: not valid TOML: {str(error).splitlines()[0]}") from None
+
+
+def section(doc: dict, name: str, required: bool = True) -> dict:
+    if name not in doc:
+        if required:
+            raise CaseError(f"{name}: missing section [{name}]")
+        return {}
+    if not isinstance(doc[name], dict):
+        raise CaseError(f"{name}: expected a table [{name}], got {doc[name]!r}")
+    return doc[name]
+
+
+def read_materials(table: dict, dim: int) -> Materials:
+    check_keys(table, SECTIONS["materials"], "materials")
+    mu = number(table, "mu", "materials", minimum=0)
+    return Materials(
+        rho_fluid=number(table, "rho_fluid", "materials", minimum=0),
+        rho_solid=number(table, "rho_solid", "materials", minimum=0),
+        nu=number(table, "nu", "materials", minimum=0),
+        lam=number(table, "lam", "materials", minimum=-2 * mu / dim),
+        mu=mu,
+    )
+
+
+@dataclass
+class Discretisation:
+    family: str = "mini"
+    order: int = 1
+    initial_stress: str = "displacement"
+    solver: str | None = None
+    curved: bool = True
+
+
+def read_discretisation(table: dict) -> Discretisation:
+    check_keys(table, SECTIONS["discretisation"], "discretisation")
+    family = choice(table, "family", "discretisation", FAMILIES, "mini")
+    low, high = ORDERS[family]
+    order = table.get("order", low)
+    if isinstance(order, bool) or not isinstance(order, int) or not low <= order <= high:
+        raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
+    initial = choice(table, "initial_stress", "discretisation", ("displacement", "projection"), "displacement")
+    solver = table.get("solver")
+    if solver is not None:
+        from .solvers import available_methods
+        choice(table, "solver", "discretisation", available_methods(), None)
+    curved = table.get("curved", True)
+    if not isinstance(curved, bool):
+        raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
+    return Discretisation(family, order, initial, solver, curved)
+
+
+def read_time(table: dict) -> tuple[float, float]:
+    check_keys(table, SECTIONS["time"], "time")
+    T = number(table, "T", "time", minimum=0)
+    dt = number(table, "dt", "time", minimum=0)
+    if dt > T:
+        raise CaseError(f"time.dt: expected a time step <= time.T = {T:g}, got {dt:g}")
+    return T, dt
+
+
+@dataclass
+class StudyCase:
+    """A manufactured-solution case file, validated."""
+
+    path: Path
+    geometry: dict[str, Any]
+    dim: int
+    materials: Materials
+    T: float
+    dt: float
+    discretisation: Discretisation
+    exact: Any = None
+    extra: dict = field(default_factory=dict)
+
+
+def read_geometry(table: dict) -> tuple[dict, int]:
+    dim = table.get("dim", 2)
+    if dim not in (2, 3) or isinstance(dim, bool):
+        raise CaseError(f"geometry.dim: expected 2 or 3, got {dim!r}")
+    if "kind" not in table:
+        raise CaseError("geometry.kind: missing; expected the name of a geometry")
+    return dict(table), dim
+
+
+def load_study_case(path: str | Path) -> StudyCase:
+    """Read and validate a case file with an [exact] section (``fsivsp study``)."""
+    from .expressions import ExpressionError
+    from .manufactured import ExactSolution, ManufacturedError
+
+    doc = read_toml(path)
+    check_keys(doc, SECTIONS, "")
+    geometry, dim = read_geometry(section(doc, "geometry"))
+    materials = read_materials(section(doc, "materials"), dim)
+    T, dt = read_time(section(doc, "time"))
+    disc = read_discretisation(section(doc, "discretisation", required=False))
+    exact_table = section(doc, "exact")
+    check_keys(exact_table, SECTIONS["exact"], "exact")
+    for key in SECTIONS["exact"]:
+        if key not in exact_table:
+            raise CaseError(f"exact.{key}: missing; expected {'an expression' if key == 'pressure' else f'a list of {dim} expressions'}")
+    try:
+        exact = ExactSolution.parse(exact_table["velocity"], exact_table["pressure"], exact_table["displacement"], dim)
+    except (ExpressionError, ManufacturedError) as error:
+        raise CaseError(str(error)) from None
+    return StudyCase(Path(path), geometry, dim, materials, T, dt, disc, exact)
+
+
+def to_study(case: StudyCase) -> "Case":
+    """The `study.Case` of a validated case file."""
+    from .geometry import build_geometry
+    from .study import Case
+
+    params = {k: v for k, v in case.geometry.items() if k not in ("kind", "dim", "maxh")}
+    kind, maxh = case.geometry["kind"], case.geometry.get("maxh")
+    coarse = build_geometry(kind, case.dim, maxh, **params)  # validates the geometry before any solve
+    disc = case.discretisation
+    return Case(
+        name=case.path.stem,
+        coarse_mesh=lambda: coarse,
+        materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
+        family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
+        project_refinement=True, solver=disc.solver, curved=disc.curved,
+    )

@@ -1,0 +1,190 @@
+"""Checkpoints of a `BackwardEuler` run, for restarting long production runs.
+
+A checkpoint is a ``.npz`` file holding the step number, the time, the coefficient
+vectors of the state (vⁿ, pⁿ), the stress σⁿ and the displacement (if tracked), a
+fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, the
+entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
+uninterrupted one bit for bit.
+
+    save_checkpoint(checkpoint_path(out, scheme.n), scheme, {"probes": probes.state()})
+    ...
+    path = latest_checkpoint(out)
+    if path is not None:
+        extra = load_checkpoint(path, scheme)
+        probes.restore(extra["probes"])
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+FORMAT = 1
+PREFIX = "checkpoint"
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be read, or that belongs to another discretisation."""
+
+
+def checkpoint_path(directory: str | Path, step: int) -> Path:
+    """The conventional name ``checkpoint_{step:06d}.npz`` in ``directory``."""
+    return Path(directory) / f"{PREFIX}_{step:06d}.npz"
+
+
+def _mesh_hash(mesh) -> str:
+    coords = np.ascontiguousarray(np.asarray(mesh.ngmesh.Coordinates(), dtype=np.float64))
+    digest = hashlib.sha256(coords.tobytes())
+    digest.update(f"{mesh.dim}:{mesh.nv}:{mesh.ne}".encode())
+    return digest.hexdigest()[:16]
+
+
+def fingerprint(scheme) -> dict:
+    """What a checkpoint must share with the run that loads it: the spaces (family, order,
+    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt, the
+    materials and whether the displacement is tracked."""
+    spaces = scheme.spaces
+    mesh = spaces.mesh
+    return {
+        "format": FORMAT,
+        "dim": mesh.dim,
+        "family": spaces.family,
+        "order": spaces.order,
+        "vertices": mesh.nv,
+        "cells": mesh.ne,
+        "mesh": _mesh_hash(mesh),
+        "ndof_velocity": spaces.velocity.ndof,
+        "ndof_pressure": spaces.pressure.ndof,
+        "ndof_stress": spaces.stress.ndof,
+        "ndof_mixed": spaces.mixed.ndof,
+        "dt": float(scheme.dt),
+        "materials": {k: float(v) for k, v in scheme.materials.as_dict().items()},
+        "displacement": scheme.displacement is not None,
+    }
+
+
+def _vectors(scheme) -> dict[str, np.ndarray]:
+    arrays = {"state": scheme.state.vec.FV().NumPy(), "stress": scheme.stress.vec.FV().NumPy()}
+    if scheme.displacement is not None:
+        arrays["displacement"] = scheme.displacement.vec.FV().NumPy()
+    return arrays
+
+
+def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path:
+    """Store the scheme's step, time and vectors with ``extra`` (JSON-serialisable).
+
+    The file is written to a temporary file in the same directory, synced, and renamed
+    over ``path``: an existing checkpoint is replaced only by a complete one.
+    """
+    path = Path(path)
+    extra_json = json.dumps(extra or {})  # fails (TypeError) before anything is written
+    arrays = {name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()}
+    arrays.update(
+        format=np.array(FORMAT, dtype=np.int64),
+        step=np.array(int(scheme.n), dtype=np.int64),
+        time=np.array(float(scheme.time), dtype=np.float64),
+        fingerprint=np.array(json.dumps(fingerprint(scheme), sort_keys=True)),
+        extra=np.array(extra_json),
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            np.savez(handle, **arrays)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    _sync_directory(path.parent)
+    return path
+
+
+def _sync_directory(directory: Path) -> None:
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def _read(path: Path) -> dict:
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            contents = {name: data[name] for name in data.files}
+    except FileNotFoundError:
+        raise
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise CheckpointError(f"checkpoint {path}: not a readable checkpoint ({exc})") from None
+    missing = {"format", "step", "time", "state", "stress", "fingerprint", "extra"} - contents.keys()
+    if missing:
+        raise CheckpointError(f"checkpoint {path}: not a fsivsp checkpoint (missing {', '.join(sorted(missing))})")
+    return contents
+
+
+def _mismatches(saved: dict, current: dict, prefix: str = "") -> list[str]:
+    out = []
+    for key in sorted(saved.keys() | current.keys()):
+        a, b = saved.get(key), current.get(key)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += _mismatches(a, b, f"{prefix}{key}.")
+        elif a != b:
+            out.append(f"{prefix}{key} {a!r} (checkpoint) vs {b!r} (this run)")
+    return out
+
+
+def load_checkpoint(path: str | Path, scheme) -> dict:
+    """Restore step, time and vectors into ``scheme`` exactly; return the saved ``extra``.
+
+    Raises `CheckpointError` if the file is unreadable or was written for another
+    discretisation (different mesh, spaces, Δt, materials or displacement tracking).
+    """
+    path = Path(path)
+    contents = _read(path)
+    saved = json.loads(str(contents["fingerprint"]))
+    problems = _mismatches(saved, fingerprint(scheme))
+    if problems:
+        raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
+    targets = _vectors(scheme)
+    for name, target in targets.items():
+        values = contents.get(name)
+        if values is None or values.shape != target.shape:
+            shape = None if values is None else values.shape
+            raise CheckpointError(f"checkpoint {path}: {name} has shape {shape}, expected {target.shape}")
+    for name, target in targets.items():
+        target[:] = contents[name]
+    scheme.time = float(contents["time"])
+    scheme.n = int(contents["step"])
+    return json.loads(str(contents["extra"]))
+
+
+def latest_checkpoint(directory: str | Path) -> Path | None:
+    """The readable ``checkpoint*.npz`` in ``directory`` with the highest step (the newest
+    file among equal steps), or None. Temporary and unreadable files are skipped."""
+    directory = Path(directory)
+    if not directory.is_dir():
+        return None
+    best, best_key = None, None
+    for path in directory.glob(f"{PREFIX}*.npz"):
+        if not path.is_file():
+            continue
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                step = int(data["step"])
+        except Exception:  # a damaged or foreign file is no candidate
+            continue
+        key = (step, path.stat().st_mtime_ns, path.name)
+        if best_key is None or key > best_key:
+            best, best_key = path, key
+    return best
