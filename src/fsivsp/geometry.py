@@ -344,8 +344,9 @@ def load_mesh(path: str | Path) -> ngs.Mesh:
     """A mesh from a file: gmsh ``.msh`` (version 2 ASCII; the physical names become the region
     names) or netgen ``.vol`` / ``.vol.gz``. The mesh must have the volume regions ``fluid`` and
     ``solid`` and the boundary region ``interface`` (`check_regions`); anything else is a
-    `GeometryError` naming the file. A file mesh has no geometry: refinement bisects edges
-    and ``Curve`` does not change it."""
+    `GeometryError` naming the file. A gmsh mesh has no geometry (refinement bisects edges,
+    ``Curve`` changes nothing); a ``.vol`` file saved from a mesh of an OCC geometry
+    (``mesh.ngmesh.Save``) carries that geometry along."""
     path = Path(path)
     name = path.name.lower()
     suffix = next((s for s in MESH_SUFFIXES if name.endswith(s)), None)

@@ -56,6 +56,20 @@ def _shaped(expr, comps):
     return sympy.Matrix(expr.rows, expr.cols, comps) if isinstance(expr, sympy.MatrixBase) else comps[0]
 
 
+def _dx(region):
+    return ngs.dx(region) if region else ngs.dx
+
+
+def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]]) -> ngs.BaseMatrix:
+    """The Gram matrix of the sum of the norms (select, parts) on ``space``."""
+    gram = ngs.BilinearForm(space, symmetric=True)
+    for select, parts in members:
+        u, w = (select(f) for f in space.TnT())
+        for region, op, _ in parts:
+            gram += ngs.InnerProduct(op(u), op(w)) * _dx(region)
+    return gram.Assemble().mat
+
+
 class ErrorNorm:
     """t ↦ ‖E(t) − u_h‖ for one unknown.
 
@@ -65,11 +79,8 @@ class ErrorNorm:
 
     def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int):
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder
-        u, w = (select(f) for f in space.TnT())
-        gram = ngs.BilinearForm(space, symmetric=True)
-        for region, op, _ in parts:
-            gram += ngs.InnerProduct(op(u), op(w)) * self._dx(region)
-        self._gram = gram.Assemble().mat
+        w = select(space.TestFunction())
+        self._gram = gram_matrix(space, [(select, parts)])
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
@@ -80,12 +91,14 @@ class ErrorNorm:
             self._terms = None
             return
         self._terms = [(to_function(tk), _shaped(exact, sk)) for tk, sk in terms]
-        inverse = self._gram.Inverse(self._used_dofs(), inverse="sparsecholesky")
+        used = self._used_dofs()
+        self.mask = np.array([used[i] for i in range(len(used))], dtype=bool)
+        inverse = self._gram.Inverse(used, inverse="sparsecholesky")
         self._projections = []
         for _, spatial in self._terms:
             load = ngs.LinearForm(space)
             for (region, op, _), cf in zip(parts, self._exact_cfs(spatial, 0.0)):
-                load += ngs.InnerProduct(cf, op(w)) * self._dx(region)
+                load += ngs.InnerProduct(cf, op(w)) * _dx(region)
             pi = ngs.GridFunction(space)
             pi.vec.data = inverse * load.Assemble().vec
             self._projections.append(pi)
@@ -98,9 +111,6 @@ class ErrorNorm:
                 self._residual[a, b] = self._residual[b, a] = sum(
                     self._integrate(ra * rb if ra.dim == 1 else ngs.InnerProduct(ra, rb), region)
                     for (ra, region), (rb, _) in zip(remainders[a], remainders[b]))
-
-    def _dx(self, region):
-        return ngs.dx(region) if region else ngs.dx
 
     def _integrate(self, cf, region) -> float:
         mesh = self.space.mesh
@@ -122,18 +132,54 @@ class ErrorNorm:
         discrete = self.select(gf)
         return [(cf - op(discrete), region) for cf, (region, op, _) in zip(cfs, self.parts)]
 
+    @property
+    def separable(self) -> bool:
+        return self._terms is not None
+
+    def add_projection(self, out: ngs.BaseVector, time: float) -> float:
+        """out += Σ_k T_k(time) π_k; returns Σ_kl T_k T_l r_kl."""
+        coeffs = np.array([fn(time) for fn, _ in self._terms])
+        for c, pi in zip(coeffs, self._projections):
+            out.data += float(c) * pi.vec
+        return float(coeffs @ self._residual @ coeffs)
+
+    def by_quadrature(self, uh: ngs.BaseVector, time: float) -> float:
+        """‖E(time) − u_h‖² by quadrature (fields that do not separate in time)."""
+        self._time.Set(time)
+        self._uh.vec.data = uh
+        return sum(self._integrate(e * e if e.dim == 1 else ngs.InnerProduct(e, e), region)
+                   for e, region in self._integrand)
+
     def __call__(self, uh: ngs.BaseVector, time: float) -> float:
         """‖E(time) − u_h‖ for the coefficient vector ``uh`` of the space."""
         if self._terms is None:
-            self._time.Set(time)
-            self._uh.vec.data = uh
-            total = sum(self._integrate(e * e if e.dim == 1 else ngs.InnerProduct(e, e), region)
-                        for e, region in self._integrand)
-            return float(np.sqrt(max(total, 0.0)))
-        coeffs = np.array([fn(time) for fn, _ in self._terms])
+            return float(np.sqrt(max(self.by_quadrature(uh, time), 0.0)))
         self._diff.data = -uh
-        for c, pi in zip(coeffs, self._projections):
-            self._diff.data += float(c) * pi.vec
+        remainder = self.add_projection(self._diff, time)
         self._work.data = self._gram * self._diff
-        total = float(coeffs @ self._residual @ coeffs) + ngs.InnerProduct(self._diff, self._work)
-        return float(np.sqrt(max(total, 0.0)))
+        return float(np.sqrt(max(remainder + ngs.InnerProduct(self._diff, self._work), 0.0)))
+
+
+class NormGroup:
+    """Several `ErrorNorm` of unknowns of one space with disjoint dofs (v₁, v₂, p of X_h),
+    evaluated together: one vector Σ T_k π_k − u_h, one product with the summed Gram matrix,
+    and a partial inner product per unknown."""
+
+    def __init__(self, norms: dict[str, ErrorNorm]):
+        self.norms = norms
+        space = next(iter(norms.values())).space
+        self._gram = gram_matrix(space, [(n.select, n.parts) for n in norms.values() if n.separable])
+        self._diff = self._gram.CreateColVector()
+        self._work = self._gram.CreateColVector()
+
+    def __call__(self, uh: ngs.BaseVector, time: float) -> dict[str, float]:
+        """{name: ‖E(time) − u_h‖}."""
+        self._diff.data = -uh
+        squares = {name: norm.add_projection(self._diff, time) if norm.separable else norm.by_quadrature(uh, time)
+                   for name, norm in self.norms.items()}
+        self._work.data = self._gram * self._diff
+        d, w = self._diff.FV().NumPy(), self._work.FV().NumPy()
+        for name, norm in self.norms.items():
+            if norm.separable:
+                squares[name] += float(d[norm.mask] @ w[norm.mask])
+        return {name: float(np.sqrt(max(value, 0.0))) for name, value in squares.items()}
