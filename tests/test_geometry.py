@@ -126,7 +126,7 @@ def test_measures_after_curving(kind, dim):
         got = measures(mesh)
     finally:
         mesh.Curve(1)
-    tolerance = (1e-5 if dim == 2 else 2e-4) if curved else 1e-11
+    tolerance = 5e-4 if curved else 1e-11  # straight: 2-10 %
     for name, value in exact.items():
         assert got[name] == pytest.approx(value, rel=tolerance), name
         if curved:  # curving is what brings the measures to the true ones
@@ -260,6 +260,7 @@ BAD = [
     ({"kind": "fluid_in_solid", "centre": (0.5,)}, "centre", "a sequence of 2 numbers"),
     ({"kind": "fluid_in_solid", "centre": 0.5}, "centre", None),
     ({"kind": "fluid_in_solid", "centre": ("a", "b")}, "centre", None),
+    ({"kind": "fluid_in_solid", "centre": [1.5, 0.5]}, "centre", "a point inside (0, 1)^2, got [1.5, 0.5]"),
     ({"kind": "fluid_in_solid", "size": 0}, "size", None),
     ({"kind": "fluid_in_solid", "maxh": 0}, "maxh", None),
     ({"kind": "fluid_in_solid", "maxh": "0.1"}, "maxh", None),

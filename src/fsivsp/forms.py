@@ -7,11 +7,16 @@ once. Read them against METHOD.md: v, w velocity trial/test, p, q pressure,
 from __future__ import annotations
 
 import ngsolve as ngs
-from ngsolve import InnerProduct, Trace, div, dx
+from ngsolve import InnerProduct, Trace, div
 
 from .geometry import FLUID, SOLID
 from .materials import Materials
 from .spaces import Spaces
+
+
+def measure(spaces: Spaces, region: str | None = None):
+    """dx over ``region`` with the integration order the spaces need (see `Spaces.bonus_intorder`)."""
+    return ngs.dx(region, bonus_intorder=spaces.bonus_intorder) if region else ngs.dx(bonus_intorder=spaces.bonus_intorder)
 
 
 def eps(v):
@@ -35,8 +40,9 @@ def step_matrix(spaces: Spaces, mat: Materials, dt: float) -> ngs.BilinearForm:
     − Δt ∫_F p div w − Δt ∫_F q div v."""
     (v, p), (w, q) = spaces.mixed.TnT()
     rho = density(mat, spaces.mesh)
+    dx = lambda region=None: measure(spaces, region)
     a = ngs.BilinearForm(spaces.mixed)
-    a += rho * InnerProduct(v, w) * dx
+    a += rho * InnerProduct(v, w) * dx()
     a += 2 * mat.nu * dt * InnerProduct(eps(v), eps(w)) * dx(FLUID)
     a += (2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w)) * dx(SOLID)
     a += (-dt * p * div(w) - dt * q * div(v)) * dx(FLUID)
@@ -47,7 +53,7 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     """∫_Ω ρ v·w on X_h (the ρ vⁿ⁻¹ term of the right-hand side)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
-    a += density(mat, spaces.mesh) * InnerProduct(v, w) * dx
+    a += density(mat, spaces.mesh) * InnerProduct(v, w) * measure(spaces)
     return a
 
 
@@ -56,7 +62,7 @@ def stress_divergence(spaces: Spaces) -> ngs.BilinearForm:
     sigma = spaces.stress.TrialFunction()
     w, _ = spaces.mixed.TestFunction()
     a = ngs.BilinearForm(trialspace=spaces.stress, testspace=spaces.mixed)
-    a += InnerProduct(sigma, eps(w)) * dx(SOLID)
+    a += InnerProduct(sigma, eps(w)) * measure(spaces, SOLID)
     return a
 
 
@@ -65,7 +71,7 @@ def stress_rate(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     v, _ = spaces.mixed.TrialFunction()
     tau = spaces.stress.TestFunction()
     a = ngs.BilinearForm(trialspace=spaces.mixed, testspace=spaces.stress)
-    a += (mat.lam * div(v) * Trace(tau) + 2 * mat.mu * InnerProduct(eps(v), tau)) * dx(SOLID)
+    a += (mat.lam * div(v) * Trace(tau) + 2 * mat.mu * InnerProduct(eps(v), tau)) * measure(spaces, SOLID)
     return a
 
 
@@ -73,5 +79,5 @@ def stress_mass(spaces: Spaces) -> ngs.BilinearForm:
     """∫_S σ:τ on S_h (block diagonal: S_h is discontinuous)."""
     sigma, tau = spaces.stress.TnT()
     a = ngs.BilinearForm(spaces.stress)
-    a += InnerProduct(sigma, tau) * dx(SOLID)
+    a += InnerProduct(sigma, tau) * measure(spaces, SOLID)
     return a

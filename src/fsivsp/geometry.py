@@ -209,6 +209,8 @@ def _inclusion(kind: str, dim: int, maxh: float | None, size: float, radius: flo
     h = _mesh_size(kind, dim, maxh)
     size, radius = _positive("size", size), _positive("radius", radius)
     c = (size / 2,) * dim if centre is None else _point("centre", centre, dim)
+    if not all(0 < ci < size for ci in c):
+        raise _fail("centre", f"a point inside (0, {size:g})^{dim}", centre)
     gap = min(min(ci, size - ci) for ci in c)
     if radius >= gap:
         shape = "disk" if dim == 2 else "ball"

@@ -56,17 +56,17 @@ def _shaped(expr, comps):
     return sympy.Matrix(expr.rows, expr.cols, comps) if isinstance(expr, sympy.MatrixBase) else comps[0]
 
 
-def _dx(region):
-    return ngs.dx(region) if region else ngs.dx
+def _dx(region, bonus: int):
+    return ngs.dx(region, bonus_intorder=bonus) if region else ngs.dx(bonus_intorder=bonus)
 
 
-def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]]) -> ngs.BaseMatrix:
+def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], bonus: int = 0) -> ngs.BaseMatrix:
     """The Gram matrix of the sum of the norms (select, parts) on ``space``."""
     gram = ngs.BilinearForm(space, symmetric=True)
     for select, parts in members:
         u, w = (select(f) for f in space.TnT())
         for region, op, _ in parts:
-            gram += ngs.InnerProduct(op(u), op(w)) * _dx(region)
+            gram += ngs.InnerProduct(op(u), op(w)) * _dx(region, bonus)
     return gram.Assemble().mat
 
 
@@ -77,10 +77,12 @@ class ErrorNorm:
     GridFunctions: `component` (i) for a product space such as X_h = V_h × Q_h, `whole` otherwise.
     """
 
-    def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int):
+    def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int, bonus: int = 0):
+        """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`."""
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder
+        self.bonus = bonus
         w = select(space.TestFunction())
-        self._gram = gram_matrix(space, [(select, parts)])
+        self._gram = gram_matrix(space, [(select, parts)], bonus)
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
@@ -98,7 +100,7 @@ class ErrorNorm:
         for _, spatial in self._terms:
             load = ngs.LinearForm(space)
             for (region, op, _), cf in zip(parts, self._exact_cfs(spatial, 0.0)):
-                load += ngs.InnerProduct(cf, op(w)) * _dx(region)
+                load += ngs.InnerProduct(cf, op(w)) * _dx(region, bonus + 4)
             pi = ngs.GridFunction(space)
             pi.vec.data = inverse * load.Assemble().vec
             self._projections.append(pi)
@@ -168,7 +170,8 @@ class NormGroup:
     def __init__(self, norms: dict[str, ErrorNorm]):
         self.norms = norms
         space = next(iter(norms.values())).space
-        self._gram = gram_matrix(space, [(n.select, n.parts) for n in norms.values() if n.separable])
+        self._gram = gram_matrix(space, [(n.select, n.parts) for n in norms.values() if n.separable],
+                                 max(n.bonus for n in norms.values()))
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
 

@@ -47,13 +47,16 @@ class Data:
 
 
 def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
-    """I_h v: nodal P1 interpolation for MINI (bubbles zero, as in the paper's
-    experiment), NGSolve's projection-based interpolation for Taylor–Hood."""
+    """I_h v: nodal P1 interpolation for MINI (bubbles zero, as in the paper's experiment),
+    NGSolve's projection-based interpolation for Taylor–Hood."""
     gf = ngs.GridFunction(spaces.velocity)
     if spaces.family == "mini":
-        linear = ngs.GridFunction(ngs.VectorH1(spaces.mesh, order=1))
+        mesh = spaces.mesh
+        linear = ngs.GridFunction(ngs.VectorH1(mesh, order=1))
         linear.Set(values)
-        gf.Set(linear)
+        # The hierarchical H1 basis numbers the vertex dofs first in each component.
+        for mine, theirs in zip(gf.components, linear.components):
+            mine.vec[: mesh.nv] = theirs.vec
     else:
         gf.Set(values)
     return gf
@@ -128,7 +131,7 @@ class BackwardEuler:
     def _load_vectors(self) -> list[TimeVector]:
         """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, each a `TimeVector`."""
         d, mesh = self.data, self.spaces.mesh
-        order = 2 * self.spaces.velocity.globalorder + 2
+        order = 2 * self.spaces.velocity.globalorder + 2 + self.spaces.bonus_intorder
         dot = lambda cf, w: InnerProduct(cf, w)
         loads = []
         if d.force_fluid is not None:

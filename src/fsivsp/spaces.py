@@ -21,6 +21,7 @@ class Spaces:
     pressure: ngs.FESpace
     stress: ngs.FESpace
     mixed: ngs.FESpace
+    bonus_intorder: int = 0
 
     @property
     def mesh(self) -> ngs.Mesh:
@@ -59,4 +60,7 @@ def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
     pressure = ngs.H1(mesh, order=order, definedon=FLUID)
     stress_order = 0 if family == "mini" else order
     stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
-    return Spaces(family, order, velocity, pressure, stress, velocity * pressure)
+    # NGSolve 6.2.2608 integrates a tetrahedron by its face/edge order, not the order of a
+    # cell-only bubble: without this, ∇ of the quartic bubble is sampled at the centroid, where it vanishes.
+    bonus = 2 * mesh.dim if family == "mini" and mesh.dim == 3 else 0
+    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bonus)

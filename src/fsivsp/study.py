@@ -70,12 +70,12 @@ class Errors:
 
     def __init__(self, spaces: Spaces, exact: ExactSolution, mat: Materials):
         d = spaces.mesh.dim
-        intorder = 2 * spaces.velocity.globalorder + 6
-        mixed = {f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder)
+        intorder, bonus = 2 * spaces.velocity.globalorder + 6 + spaces.bonus_intorder, spaces.bonus_intorder
+        mixed = {f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder, bonus)
                  for j in range(d)}
-        mixed["p"] = ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, intorder)
+        mixed["p"] = ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, intorder, bonus)
         self.mixed = NormGroup(mixed)
-        self.stress = ErrorNorm(spaces.stress, whole, l2(SOLID), exact.solid_stress(mat), intorder)
+        self.stress = ErrorNorm(spaces.stress, whole, l2(SOLID), exact.solid_stress(mat), intorder, bonus)
 
     def __call__(self, scheme: BackwardEuler) -> dict[str, float]:
         errors = self.mixed(scheme.state.vec, scheme.time)
