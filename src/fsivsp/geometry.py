@@ -466,3 +466,19 @@ def build_geometry(kind: str, dim: int = 2, maxh: float | None = None, **paramet
             raise _fail("grading", "a number in (0, 1]", grading)
         return paper_channel(maxh=h, grading=grading)
     return _BUILDERS[kind](dim, maxh, **parameters)
+
+
+
+def locked_fluid_cells(mesh: ngs.Mesh, dirichlet: str) -> list[int]:
+    """Fluid cells with every vertex on a Dirichlet boundary (Γ_F or Γ_S).
+
+    Typically a box corner meshed by a single tetrahedron: a continuous velocity without
+    interior dofs vanishes on it, and with Taylor–Hood the pressure at such a corner is
+    seen by no free velocity dof (the step-1 matrix is singular).
+    """
+    if not dirichlet:
+        return []
+    region = mesh.Boundaries(dirichlet).Mask()
+    walled = {v.nr for el in mesh.Elements(ngs.BND) if region[el.index] for v in el.vertices}
+    return [el.nr for el in mesh.Elements(ngs.VOL)
+            if el.mat == FLUID and all(v.nr in walled for v in el.vertices)]

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 
-from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL
+from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, locked_fluid_cells
 
 FAMILIES = ("mini", "taylor_hood")
 
@@ -32,19 +32,26 @@ class Spaces:
         return sum(self.mixed.FreeDofs())
 
 
-def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> ngs.FESpace:
-    """MINI (72): continuous P1 plus the bubble of degree d+1 on fluid cells only, so that
+def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> tuple[ngs.FESpace, int]:
+    """V_h and the order of its cell bubbles (0 if none).
+
+    MINI (72): continuous P1 plus the bubble of degree d+1 on fluid cells only, so that
     ε(V_h) restricted to the solid is piecewise constant (condition (18)).
-    Taylor–Hood: continuous P_{k+1} on Ω."""
-    if family == "taylor_hood":
-        return ngs.VectorH1(mesh, order=order + 1, dirichlet=dirichlet)
-    space = ngs.VectorH1(mesh, order=1, dirichlet=dirichlet)
-    bubble_order = mesh.dim + 1
-    for el in mesh.Elements(ngs.VOL):
-        if el.mat == FLUID:
-            space.SetOrder(ngs.NodeId(ngs.CELL, el.nr), bubble_order)
+    Taylor–Hood: continuous P_{k+1} on Ω; fluid cells with all vertices on Dirichlet walls
+    (`locked_fluid_cells`) get the bubble of degree d+1 too when P_{k+1} has no interior dof,
+    so that the pressure at such a corner is controlled (a local MINI-type enrichment).
+    """
+    base = 1 if family == "mini" else order + 1
+    cells = ([el.nr for el in mesh.Elements(ngs.VOL) if el.mat == FLUID] if family == "mini"
+             else locked_fluid_cells(mesh, dirichlet))
+    space = ngs.VectorH1(mesh, order=base, dirichlet=dirichlet)
+    bubble = mesh.dim + 1
+    if base >= bubble or not cells:
+        return space, 0
+    for nr in cells:
+        space.SetOrder(ngs.NodeId(ngs.CELL, nr), bubble)
     space.Update()
-    return space
+    return space, bubble
 
 
 def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
@@ -56,11 +63,12 @@ def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
         raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
     if family == "mini":
         order = 1
-    velocity = velocity_space(mesh, family, order, dirichlet)
+    velocity, bubble = velocity_space(mesh, family, order, dirichlet)
     pressure = ngs.H1(mesh, order=order, definedon=FLUID)
     stress_order = 0 if family == "mini" else order
     stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
     # NGSolve 6.2.2608 integrates a tetrahedron by its face/edge order, not the order of a
     # cell-only bubble: without this, ∇ of the quartic bubble is sampled at the centroid, where it vanishes.
-    bonus = 2 * mesh.dim if family == "mini" and mesh.dim == 3 else 0
+    base = 1 if family == "mini" else order + 1
+    bonus = 2 * (bubble - base) if bubble and mesh.dim == 3 else 0
     return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bonus)
