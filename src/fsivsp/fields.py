@@ -38,7 +38,7 @@ class Field:
 
     def coefficient(self, t) -> ngs.CoefficientFunction:
         """The whole field as a CoefficientFunction, time from ``t`` (Parameter or float)."""
-        return to_coefficient(self.expr, t)
+        return to_coefficient(self.expr, t).Compile()
 
     def at(self, time: float) -> "Field":
         return Field(self._shaped([c.subs(T, time) for c in self.components()]))
@@ -53,11 +53,11 @@ class Field:
             terms = separate_time(comps[0])
             if terms is None:
                 return None
-            return [(to_function(tk), to_coefficient(sk, 0.0)) for tk, sk in terms]
+            return [(to_function(tk), to_coefficient(sk, 0.0).Compile()) for tk, sk in terms]
         terms = separate_time_vector(comps)
         if terms is None:
             return None
-        return [(to_function(tk), to_coefficient(self._shaped(sk), 0.0)) for tk, sk in terms]
+        return [(to_function(tk), to_coefficient(self._shaped(sk), 0.0).Compile()) for tk, sk in terms]
 
 
 class TimeVector:

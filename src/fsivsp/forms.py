@@ -14,9 +14,15 @@ from .materials import Materials
 from .spaces import Spaces
 
 
-def measure(spaces: Spaces, region: str | None = None):
-    """dx over ``region`` with the integration order the spaces need (see `Spaces.bonus_intorder`)."""
-    return ngs.dx(region, bonus_intorder=spaces.bonus_intorder) if region else ngs.dx(bonus_intorder=spaces.bonus_intorder)
+def integral(integrand, spaces: Spaces, region: str | None = None):
+    """∫_region integrand (Ω if None), with the extra quadrature order that fluid cells with
+    bubbles need (`Spaces.bonus_intorder`)."""
+    fluid = integrand * ngs.dx(FLUID, bonus_intorder=spaces.bonus_intorder)
+    if region == FLUID:
+        return fluid
+    if region == SOLID:
+        return integrand * ngs.dx(SOLID)
+    return fluid + integrand * ngs.dx(SOLID)
 
 
 def eps(v):
@@ -40,12 +46,11 @@ def step_matrix(spaces: Spaces, mat: Materials, dt: float) -> ngs.BilinearForm:
     − Δt ∫_F p div w − Δt ∫_F q div v."""
     (v, p), (w, q) = spaces.mixed.TnT()
     rho = density(mat, spaces.mesh)
-    dx = lambda region=None: measure(spaces, region)
     a = ngs.BilinearForm(spaces.mixed)
-    a += rho * InnerProduct(v, w) * dx()
-    a += 2 * mat.nu * dt * InnerProduct(eps(v), eps(w)) * dx(FLUID)
-    a += (2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w)) * dx(SOLID)
-    a += (-dt * p * div(w) - dt * q * div(v)) * dx(FLUID)
+    a += integral(rho * InnerProduct(v, w), spaces)
+    a += integral(2 * mat.nu * dt * InnerProduct(eps(v), eps(w)), spaces, FLUID)
+    a += integral(2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w), spaces, SOLID)
+    a += integral(-dt * p * div(w) - dt * q * div(v), spaces, FLUID)
     return a
 
 
@@ -53,7 +58,7 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     """∫_Ω ρ v·w on X_h (the ρ vⁿ⁻¹ term of the right-hand side)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
-    a += density(mat, spaces.mesh) * InnerProduct(v, w) * measure(spaces)
+    a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
     return a
 
 
@@ -62,7 +67,7 @@ def stress_divergence(spaces: Spaces) -> ngs.BilinearForm:
     sigma = spaces.stress.TrialFunction()
     w, _ = spaces.mixed.TestFunction()
     a = ngs.BilinearForm(trialspace=spaces.stress, testspace=spaces.mixed)
-    a += InnerProduct(sigma, eps(w)) * measure(spaces, SOLID)
+    a += integral(InnerProduct(sigma, eps(w)), spaces, SOLID)
     return a
 
 
@@ -71,7 +76,7 @@ def stress_rate(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     v, _ = spaces.mixed.TrialFunction()
     tau = spaces.stress.TestFunction()
     a = ngs.BilinearForm(trialspace=spaces.mixed, testspace=spaces.stress)
-    a += (mat.lam * div(v) * Trace(tau) + 2 * mat.mu * InnerProduct(eps(v), tau)) * measure(spaces, SOLID)
+    a += integral(mat.lam * div(v) * Trace(tau) + 2 * mat.mu * InnerProduct(eps(v), tau), spaces, SOLID)
     return a
 
 
@@ -79,5 +84,5 @@ def stress_mass(spaces: Spaces) -> ngs.BilinearForm:
     """∫_S σ:τ on S_h (block diagonal: S_h is discontinuous)."""
     sigma, tau = spaces.stress.TnT()
     a = ngs.BilinearForm(spaces.stress)
-    a += InnerProduct(sigma, tau) * measure(spaces, SOLID)
+    a += integral(InnerProduct(sigma, tau), spaces, SOLID)
     return a

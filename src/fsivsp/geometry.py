@@ -196,13 +196,16 @@ def _point(field: str, value: Any, dim: int) -> tuple[float, ...]:
     return tuple(float(c) for c in point)
 
 
-def _mesh(shape, dim: int, maxh: float) -> ngs.Mesh:
+def _mesh(shape, dim: int, maxh: float, curvature_safety: float = 2.0) -> ngs.Mesh:
+    """netgen's mesh; ``curvature_safety`` (netgen's curvaturesafety) bounds the element size on
+    curved surfaces by radius / curvature_safety: lower it for coarse meshes of a ball."""
     geometry = OCCGeometry(shape, dim=dim)
-    return ngs.Mesh(geometry.GenerateMesh(maxh=maxh))
+    return ngs.Mesh(geometry.GenerateMesh(maxh=maxh, curvaturesafety=_positive("curvature_safety", curvature_safety)))
 
 
 def _inclusion(kind: str, dim: int, maxh: float | None, size: float, radius: float,
-               centre: Sequence[float] | None, inner: str, outer: str, outer_wall: str) -> ngs.Mesh:
+               centre: Sequence[float] | None, inner: str, outer: str, outer_wall: str,
+               curvature_safety: float = 2.0) -> ngs.Mesh:
     """A disk/ball (region ``inner``, boundary ``interface``) strictly inside the square/cube
     (0, size)^dim (region ``outer``, outer boundary ``outer_wall``)."""
     dim = _dimension(kind, dim)
@@ -229,23 +232,25 @@ def _inclusion(kind: str, dim: int, maxh: float | None, size: float, radius: flo
         rest = box - inclusion
         rest.mat(outer)
         inclusion.mat(inner)
-    return _mesh(Glue([rest, inclusion]), dim, h)
+    return _mesh(Glue([rest, inclusion]), dim, h, curvature_safety)
 
 
 def fluid_in_solid(dim: int = 2, maxh: float | None = None, *, size: float = 1.0, radius: float = 0.25,
-                   centre: Sequence[float] | None = None) -> ngs.Mesh:
+                   centre: Sequence[float] | None = None, curvature_safety: float = 2.0) -> ngs.Mesh:
     """Ω_F a disk (2D) / ball (3D) of ``radius`` around ``centre`` (default: the middle) inside
     the solid square/cube (0, size)^dim. Γ_F = ∅; the outer boundary is ``solid_wall``.
     ``maxh`` defaults to 0.1 (2D) / 0.2 (3D)."""
-    return _inclusion("fluid_in_solid", dim, maxh, size, radius, centre, FLUID, SOLID, SOLID_WALL)
+    return _inclusion("fluid_in_solid", dim, maxh, size, radius, centre, FLUID, SOLID, SOLID_WALL,
+                      curvature_safety)
 
 
 def solid_in_fluid(dim: int = 2, maxh: float | None = None, *, size: float = 1.0, radius: float = 0.25,
-                   centre: Sequence[float] | None = None) -> ngs.Mesh:
+                   centre: Sequence[float] | None = None, curvature_safety: float = 2.0) -> ngs.Mesh:
     """Ω_S a disk (2D) / ball (3D) of ``radius`` around ``centre`` (default: the middle) inside
     the fluid square/cube (0, size)^dim. Γ_S = ∅; the outer boundary is ``fluid_wall``.
     ``maxh`` defaults to 0.1 (2D) / 0.2 (3D)."""
-    return _inclusion("solid_in_fluid", dim, maxh, size, radius, centre, SOLID, FLUID, FLUID_WALL)
+    return _inclusion("solid_in_fluid", dim, maxh, size, radius, centre, SOLID, FLUID, FLUID_WALL,
+                      curvature_safety)
 
 
 def fluid_over_solid(dim: int = 2, maxh: float | None = None, *, width: float = 1.0,
@@ -395,14 +400,14 @@ KINDS: dict[str, dict[str, Any]] = {
     "fluid_in_solid": {
         "dims": (2, 3),
         "maxh": DEFAULT_MAXH["fluid_in_solid"],
-        "parameters": {"size": 1.0, "radius": 0.25, "centre": None},
+        "parameters": {"size": 1.0, "radius": 0.25, "centre": None, "curvature_safety": 2.0},
         "description": "a fluid disk/ball (default centre: the middle) inside the solid square/cube "
                        "(0, size)^dim; Γ_F = ∅",
     },
     "solid_in_fluid": {
         "dims": (2, 3),
         "maxh": DEFAULT_MAXH["solid_in_fluid"],
-        "parameters": {"size": 1.0, "radius": 0.25, "centre": None},
+        "parameters": {"size": 1.0, "radius": 0.25, "centre": None, "curvature_safety": 2.0},
         "description": "a solid disk/ball (default centre: the middle) inside the fluid square/cube "
                        "(0, size)^dim; Γ_S = ∅",
     },

@@ -19,6 +19,7 @@ import numpy as np
 import ngsolve as ngs
 import sympy
 
+from .geometry import FLUID, SOLID
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
 # A norm is a sum of parts ∫_region op(u)·op(u): (region or None for Ω, op on discrete functions, op on exact fields).
@@ -56,8 +57,13 @@ def _shaped(expr, comps):
     return sympy.Matrix(expr.rows, expr.cols, comps) if isinstance(expr, sympy.MatrixBase) else comps[0]
 
 
-def _dx(region, bonus: int):
-    return ngs.dx(region, bonus_intorder=bonus) if region else ngs.dx(bonus_intorder=bonus)
+def _integral(integrand, region, bonus: int):
+    """∫_region integrand (Ω if None) with ``bonus`` extra quadrature order on the fluid cells
+    (where bubbles live, see `Spaces.bonus_intorder`)."""
+    if region == SOLID:
+        return integrand * ngs.dx(SOLID)
+    fluid = integrand * ngs.dx(FLUID, bonus_intorder=bonus)
+    return fluid if region == FLUID else fluid + integrand * ngs.dx(SOLID)
 
 
 def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], bonus: int = 0) -> ngs.BaseMatrix:
@@ -66,7 +72,7 @@ def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], 
     for select, parts in members:
         u, w = (select(f) for f in space.TnT())
         for region, op, _ in parts:
-            gram += ngs.InnerProduct(op(u), op(w)) * _dx(region, bonus)
+            gram += _integral(ngs.InnerProduct(op(u), op(w)), region, bonus)
     return gram.Assemble().mat
 
 
@@ -100,7 +106,7 @@ class ErrorNorm:
         for _, spatial in self._terms:
             load = ngs.LinearForm(space)
             for (region, op, _), cf in zip(parts, self._exact_cfs(spatial, 0.0)):
-                load += ngs.InnerProduct(cf, op(w)) * _dx(region, bonus + 4)
+                load += _integral(ngs.InnerProduct(cf, op(w)), region, bonus + 2)
             pi = ngs.GridFunction(space)
             pi.vec.data = inverse * load.Assemble().vec
             self._projections.append(pi)
@@ -128,7 +134,7 @@ class ErrorNorm:
         return used
 
     def _exact_cfs(self, expr, t):
-        return [to_coefficient(exact_op(expr), t) for _, _, exact_op in self.parts]
+        return [to_coefficient(exact_op(expr), t).Compile() for _, _, exact_op in self.parts]
 
     def _remainder(self, cfs, gf: ngs.GridFunction):
         discrete = self.select(gf)

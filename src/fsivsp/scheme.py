@@ -131,11 +131,12 @@ class BackwardEuler:
     def _load_vectors(self) -> list[TimeVector]:
         """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, each a `TimeVector`."""
         d, mesh = self.data, self.spaces.mesh
-        order = 2 * self.spaces.velocity.globalorder + 2 + self.spaces.bonus_intorder
+        order = 2  # data are not polynomials: two orders above NGSolve's default
         dot = lambda cf, w: InnerProduct(cf, w)
         loads = []
         if d.force_fluid is not None:
-            loads.append(TimeVector(d.force_fluid, self._linear_form(dot, dx(FLUID, bonus_intorder=order))))
+            fluid = dx(FLUID, bonus_intorder=order + self.spaces.bonus_intorder)
+            loads.append(TimeVector(d.force_fluid, self._linear_form(dot, fluid)))
         if d.force_solid is not None:
             loads.append(TimeVector(d.force_solid, self._linear_form(dot, dx(SOLID, bonus_intorder=order))))
         for name, traction in d.boundary_traction.items():

@@ -21,7 +21,19 @@ class Spaces:
     pressure: ngs.FESpace
     stress: ngs.FESpace
     mixed: ngs.FESpace
-    bonus_intorder: int = 0
+    bubble_order: int = 0
+
+    @property
+    def velocity_order(self) -> int:
+        """The largest polynomial degree in V_h (bubbles included)."""
+        return max(1 if self.family == "mini" else self.order + 1, self.bubble_order)
+
+    @property
+    def bonus_intorder(self) -> int:
+        """NGSolve 6.2.2608 integrates a tetrahedron by its face/edge order, not the order of a
+        cell-only bubble: without this bonus, ∇ of the quartic bubble is sampled at the centroid."""
+        base = 1 if self.family == "mini" else self.order + 1
+        return 2 * (self.bubble_order - base) if self.bubble_order and self.mesh.dim == 3 else 0
 
     @property
     def mesh(self) -> ngs.Mesh:
@@ -67,8 +79,4 @@ def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
     pressure = ngs.H1(mesh, order=order, definedon=FLUID)
     stress_order = 0 if family == "mini" else order
     stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
-    # NGSolve 6.2.2608 integrates a tetrahedron by its face/edge order, not the order of a
-    # cell-only bubble: without this, ∇ of the quartic bubble is sampled at the centroid, where it vanishes.
-    base = 1 if family == "mini" else order + 1
-    bonus = 2 * (bubble - base) if bubble and mesh.dim == 3 else 0
-    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bonus)
+    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bubble)

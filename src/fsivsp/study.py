@@ -70,7 +70,7 @@ class Errors:
 
     def __init__(self, spaces: Spaces, exact: ExactSolution, mat: Materials):
         d = spaces.mesh.dim
-        intorder, bonus = 2 * spaces.velocity.globalorder + 6 + spaces.bonus_intorder, spaces.bonus_intorder
+        intorder, bonus = 2 * spaces.velocity_order + 2, spaces.bonus_intorder
         mixed = {f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder, bonus)
                  for j in range(d)}
         mixed["p"] = ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, intorder, bonus)
