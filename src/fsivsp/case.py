@@ -83,16 +83,23 @@ def section(doc: dict, name: str, required: bool = True) -> dict:
     return doc[name]
 
 
-def read_materials(table: dict, dim: int) -> Materials:
-    check_keys(table, SECTIONS["materials"], "materials")
+def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materials:
+    """ρ_F, ρ_S, ν > 0 and the Lamé constants μ > 0, λ > −2μ/d; with ``young_allowed`` the
+    solid may be given instead by Young's modulus E > 0 and Poisson's ratio −1 < ν_P < 1/2."""
+    allowed = SECTIONS["materials"] | ({"young", "poisson"} if young_allowed else set())
+    check_keys(table, allowed, "materials")
+    fluid = {key: number(table, key, "materials", minimum=0) for key in ("rho_fluid", "rho_solid", "nu")}
+    if young_allowed and ("young" in table or "poisson" in table):
+        for key in ("lam", "mu"):
+            if key in table:
+                raise CaseError(f"materials.{key}: give either lam and mu or young and poisson, not both")
+        young = number(table, "young", "materials", minimum=0)
+        poisson = number(table, "poisson", "materials", minimum=-1)
+        if poisson >= 0.5:
+            raise CaseError(f"materials.poisson: expected a number in (-1, 0.5), got {poisson!r}")
+        return Materials.from_young(young, poisson, **fluid)
     mu = number(table, "mu", "materials", minimum=0)
-    return Materials(
-        rho_fluid=number(table, "rho_fluid", "materials", minimum=0),
-        rho_solid=number(table, "rho_solid", "materials", minimum=0),
-        nu=number(table, "nu", "materials", minimum=0),
-        lam=number(table, "lam", "materials", minimum=-2 * mu / dim),
-        mu=mu,
-    )
+    return Materials(lam=number(table, "lam", "materials", minimum=-2 * mu / dim), mu=mu, **fluid)
 
 
 @dataclass

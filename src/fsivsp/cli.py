@@ -101,6 +101,15 @@ def build_parser() -> Parser:
     study.add_argument("--quiet", action="store_true", help="no progress bars")
     study.set_defaults(handler=study_command)
 
+    run = commands.add_parser("run", help="run a case file: ParaView series, probes, plots, checkpoints",
+                              description="Production run of a case file (no [exact] section): writes a PVD/VTU "
+                              "series, probes.csv, lines.csv, energy.png, probes.png, summary.json and checkpoints.")
+    run.add_argument("case", type=Path, metavar="CASE.toml", help="the case file")
+    run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
+    run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.set_defaults(handler=run_command)
+
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
                                  description="Every (element, dimension, configuration) entry of "
                                  "fsivsp.verification.TABLE on three levels, with least-squares rates (76).")
@@ -198,6 +207,24 @@ def study_command(args) -> int:
         print(f"\nrates (76)\n{rate_table(records)}")
     if args.json:
         write_json(args.json, records)
+    return 0
+
+
+def run_command(args) -> int:
+    from .run import SolveDiverged, load_run_case, run_case
+
+    case = load_run_case(args.case)
+    out = args.out or Path(args.case.stem)
+    try:
+        summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
+    except SolveDiverged as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 3
+    except KeyboardInterrupt:
+        print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
+        return 130
+    if not args.quiet:
+        print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g}; results in {out}")
     return 0
 
 

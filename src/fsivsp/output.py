@@ -5,7 +5,8 @@ Every file is written next to its final name and moved into place with
 ``os.replace``, so an interrupted run never leaves a half-written file where a
 good one was (the VTK series, the ``.pvd`` collection, the CSV files, the plots).
 
-    series = VTKSeries(out, scheme.spaces.mesh, scheme_fields(scheme))
+    fields, stress = scheme_fields(scheme)
+    series = VTKSeries(out, scheme.spaces.mesh, fields, refresh=stress)
     probes = Probes(scheme.spaces.mesh, points=[(0.2, 0.2)], lines=[((0, 0.2), (2.5, 0.2), 50)])
     for _ in range(steps):
         scheme.step()
@@ -31,13 +32,22 @@ from .report import write_atomic, write_json
 
 
 def _components(tensor: ngs.CoefficientFunction, dim: int) -> ngs.CoefficientFunction:
-    """A d×d matrix as the row-major vector (σ_11, σ_12, …, σ_dd).
-
-    VTKOutput accepts a matrix-valued GridFunction of ``MatrixValued(L2, symmetric=True)``
-    directly (it writes d·d components) but then evaluates through a generic fallback that
-    prints "called base class apply" on every call; the explicit components avoid that.
-    """
+    """A d×d matrix as the row-major vector (σ_11, σ_12, …, σ_dd)."""
     return ngs.CF(tuple(tensor[i, j] for i in range(dim) for j in range(dim)))
+
+
+class SolidStress:
+    """σ_h copied into a plain (L²)^{d·d} GridFunction of the same order on Ω_S (exact: the same
+    polynomials per component). VTKOutput evaluates the symmetric matrix-valued space through a
+    generic fallback that prints "called base class apply" at every point; this copy does not."""
+
+    def __init__(self, scheme):
+        mesh, self.scheme, self.dim = scheme.spaces.mesh, scheme, scheme.spaces.mesh.dim
+        order = scheme.spaces.stress.globalorder
+        self.values = ngs.GridFunction(ngs.L2(mesh, order=order, definedon=mesh.Materials("solid")) ** (self.dim ** 2))
+
+    def __call__(self) -> None:
+        self.values.Set(_components(self.scheme.stress, self.dim))
 
 
 def von_mises(stress: ngs.CoefficientFunction, materials, dim: int) -> ngs.CoefficientFunction:
@@ -57,8 +67,8 @@ def von_mises(stress: ngs.CoefficientFunction, materials, dim: int) -> ngs.Coeff
     return ngs.sqrt(1.5 * ngs.IfPos(deviatoric, deviatoric, 0))
 
 
-def scheme_fields(scheme) -> dict[str, ngs.CoefficientFunction]:
-    """The fields of a `BackwardEuler` for `VTKSeries`.
+def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStress]:
+    """The fields of a `BackwardEuler` for `VTKSeries`, and the `SolidStress` to refresh before writing.
 
     ``velocity`` (d components), ``pressure`` (the fluid pressure, 0 in the solid),
     ``stress`` (the solid stress σ as d·d row-major components, 0 in the fluid),
@@ -66,15 +76,16 @@ def scheme_fields(scheme) -> dict[str, ngs.CoefficientFunction]:
     only if the scheme tracks it).
     """
     dim = scheme.spaces.mesh.dim
+    stress = SolidStress(scheme)
     fields = {
         "velocity": scheme.velocity,
         "pressure": scheme.pressure,
-        "stress": _components(scheme.stress, dim),
-        "von_mises": von_mises(scheme.stress, scheme.materials, dim),
+        "stress": stress.values,
+        "von_mises": von_mises(ngs.CF(stress.values, dims=(dim, dim)), scheme.materials, dim),
     }
     if scheme.displacement is not None:
         fields["displacement"] = scheme.displacement
-    return fields
+    return fields, stress
 
 
 def _pvd(entries: list[tuple[float, str]]) -> str:
@@ -97,11 +108,12 @@ class VTKSeries:
     """
 
     def __init__(self, directory: str | Path, mesh: ngs.Mesh, fields: dict[str, ngs.CoefficientFunction],
-                 name: str = "fields", subdivision: int = 0):
+                 name: str = "fields", subdivision: int = 0, refresh=None):
+        """``refresh``, if given, is called before every write (see `SolidStress`)."""
         if not fields:
             raise ValueError("fields: expected at least one field to write")
         self.directory, self.mesh, self.name = Path(directory), mesh, name
-        self.fields, self.subdivision = dict(fields), subdivision
+        self.fields, self.subdivision, self.refresh = dict(fields), subdivision, refresh
         self._entries: list[tuple[float, str]] = []
 
     @property
@@ -123,6 +135,8 @@ class VTKSeries:
 
     def write(self, time: float, step: int) -> Path:
         """Write the fields at ``time`` as step ``step``; returns the file's path."""
+        if self.refresh is not None:
+            self.refresh()
         self.directory.mkdir(parents=True, exist_ok=True)
         final = self.directory / self.filename(step)
         fd, reserved = tempfile.mkstemp(dir=self.directory, prefix=f".{final.stem}.", suffix=".tmp")

@@ -230,7 +230,7 @@ class BackwardEuler:
     def step(self) -> None:
         """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then
         σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)) exactly (condition (18))."""
-        time = self.time + self.dt
+        time = (self.n + 1) * self.dt  # no accumulated round-off in tₙ = nΔt
         self.right_hand_side(time)
         self.solve()
         self.update_stress()

@@ -1,0 +1,292 @@
+"""Production runs: ``fsivsp run CASE.toml`` from a case file to ParaView series, probes,
+plots and a JSON summary, with atomic checkpoints and resume.
+
+Case file sections (all validated before any heavy work, see `load_run_case`):
+``[geometry]``, ``[materials]`` (lam/mu or young/poisson), ``[time]``, ``[discretisation]``,
+``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
+``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
+velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
+lines, subdivision) and ``[checkpoint]`` (every).
+"""
+from __future__ import annotations
+
+import math
+import signal
+import time as clock
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .case import (CaseError, Discretisation, check_keys, read_discretisation, read_geometry, read_materials,
+                   read_time, read_toml, section)
+from .expressions import ExpressionError, parse_vector
+from .fields import Field
+from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, GeometryError, build_geometry
+from .materials import Materials
+
+RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "data", "boundary", "output", "checkpoint"}
+DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
+OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk"}
+CHECKPOINT_KEYS = {"every"}
+
+
+class SolveDiverged(RuntimeError):
+    """The discrete solution stopped being finite."""
+
+
+@dataclass
+class RunCase:
+    """A validated production case."""
+
+    path: Path
+    geometry: dict[str, Any]
+    dim: int
+    materials: Materials
+    T: float
+    dt: float
+    discretisation: Discretisation
+    data: dict[str, list]
+    boundaries: dict[str, tuple[str, list]]
+    output: dict[str, Any]
+    checkpoint_every: int
+    mesh: Any = field(default=None, repr=False)
+
+    @property
+    def steps(self) -> int:
+        return max(1, round(self.T / self.dt))
+
+
+def _whole(table: dict, key: str, where: str, default: int) -> int:
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise CaseError(f"{where}.{key}: expected a positive whole number, got {value!r}")
+    return value
+
+
+def _vector(value, field_name: str, dim: int) -> list:
+    try:
+        return parse_vector(value, field_name, dim)
+    except ExpressionError as error:
+        raise CaseError(str(error)) from None
+
+
+def _points(value, field_name: str, dim: int) -> list[tuple[float, ...]]:
+    if not isinstance(value, list):
+        raise CaseError(f"{field_name}: expected a list of points, got {value!r}")
+    points = []
+    for i, point in enumerate(value):
+        if (not isinstance(point, list) or len(point) != dim
+                or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in point)):
+            raise CaseError(f"{field_name}[{i}]: expected a point of {dim} numbers, got {point!r}")
+        points.append(tuple(float(c) for c in point))
+    return points
+
+
+def read_output(table: dict, dim: int) -> dict[str, Any]:
+    check_keys(table, OUTPUT_KEYS, "output")
+    lines = []
+    for i, line in enumerate(table.get("lines", [])):
+        if not isinstance(line, dict) or set(line) - {"start", "end", "n"} or not {"start", "end"} <= set(line):
+            raise CaseError(f"output.lines[{i}]: expected {{start = [...], end = [...], n = N}}, got {line!r}")
+        start, end = _points([line["start"], line["end"]], f"output.lines[{i}]", dim)
+        lines.append((start, end, _whole(line, "n", f"output.lines[{i}]", 20)))
+    vtk = table.get("vtk", True)
+    if not isinstance(vtk, bool):
+        raise CaseError(f"output.vtk: expected true or false, got {vtk!r}")
+    subdivision = table.get("subdivision", 0)
+    if isinstance(subdivision, bool) or not isinstance(subdivision, int) or not 0 <= subdivision <= 3:
+        raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
+    return {"every": _whole(table, "every", "output", 10), "probes": _points(table.get("probes", []), "output.probes", dim),
+            "lines": lines, "vtk": vtk, "subdivision": subdivision}
+
+
+def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
+    boundaries = {}
+    for name, spec in table.items():
+        where = f"boundary.{name}"
+        if not isinstance(spec, dict):
+            raise CaseError(f"{where}: expected a table [boundary.{name}] with velocity or traction, got {spec!r}")
+        check_keys(spec, {"velocity", "traction"}, where)
+        if len(spec) != 1:
+            raise CaseError(f"{where}: expected exactly one of velocity = [...] or traction = [...]")
+        kind, value = next(iter(spec.items()))
+        boundaries[name] = (kind, _vector(value, f"{where}.{kind}", dim))
+    return boundaries
+
+
+def check_boundaries(boundaries: dict, mesh) -> None:
+    present = set(mesh.GetBoundaries())
+    for name in boundaries:
+        if name == INTERFACE:
+            raise CaseError("boundary.interface: the interface is not a boundary (its conditions are built in)")
+        if name not in present:
+            names = ", ".join(sorted(present - {INTERFACE}))
+            raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
+
+
+def load_run_case(path: str | Path) -> RunCase:
+    """Read and validate every field of a production case, including the mesh's boundary names."""
+    doc = read_toml(path)
+    check_keys(doc, RUN_SECTIONS, "")
+    geometry, dim = read_geometry(section(doc, "geometry"))
+    materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
+    T, dt = read_time(section(doc, "time"))
+    disc = read_discretisation(section(doc, "discretisation", required=False))
+    data_table = section(doc, "data", required=False)
+    check_keys(data_table, DATA_KEYS, "data")
+    data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
+    boundaries = read_boundaries(section(doc, "boundary", required=False), dim)
+    output = read_output(section(doc, "output", required=False), dim)
+    checkpoint_table = section(doc, "checkpoint", required=False)
+    check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
+    every = _whole(checkpoint_table, "every", "checkpoint", 50)
+    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh")}
+    mesh = build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+    check_boundaries(boundaries, mesh)
+    return RunCase(Path(path), geometry, dim, materials, T, dt, disc, data, boundaries, output, every, mesh)
+
+
+def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
+    """Dirichlet and traction data per boundary; walls default to rest, other boundaries to σn = 0."""
+    present = set(case.mesh.GetBoundaries())
+    velocity, traction = {}, {}
+    for name in (FLUID_WALL, SOLID_WALL):
+        if name in present and name not in case.boundaries:
+            velocity[name] = Field([0] * case.dim)
+    for name, (kind, value) in case.boundaries.items():
+        (velocity if kind == "velocity" else traction)[name] = Field(value)
+    return velocity, traction
+
+
+def build_scheme(case: RunCase):
+    from .scheme import BackwardEuler, Data
+    from .spaces import build_spaces
+
+    velocity, traction = boundary_conditions(case)
+    if case.discretisation.curved and case.discretisation.family == "taylor_hood":
+        case.mesh.Curve(case.discretisation.order + 1)
+    spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
+    zero = [0] * case.dim
+    data = Data(
+        velocity0=Field(case.data.get("velocity0", zero)),
+        displacement0=Field(case.data.get("displacement0", zero)),
+        force_fluid=Field(case.data["force_fluid"]) if "force_fluid" in case.data else None,
+        force_solid=Field(case.data["force_solid"]) if "force_solid" in case.data else None,
+        boundary_velocity=velocity,
+        boundary_traction=traction,
+    )
+    return BackwardEuler(spaces, case.materials, data, case.dt, solver=case.discretisation.solver,
+                         track_displacement=True)
+
+
+class _Interrupt:
+    """Ctrl-C sets a flag; the time loop checkpoints after the current step and stops."""
+
+    def __init__(self):
+        self.requested = False
+
+    def __enter__(self):
+        self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def _handle(self, *_):
+        self.requested = True
+
+    def __exit__(self, *exc):
+        signal.signal(signal.SIGINT, self._previous)
+
+
+def l2_norms(scheme) -> dict[str, float]:
+    """‖v‖_{L²(Ω)}, ‖p‖_{L²(Ω_F)}, ‖σ‖_{L²(Ω_S)} (σ through its mass matrix)."""
+    import ngsolve as ngs
+
+    from .forms import stress_mass
+    from .geometry import FLUID
+    mesh, sigma = scheme.spaces.mesh, scheme.stress.vec
+    mass = stress_mass(scheme.spaces).Assemble().mat
+    return {"velocity": math.sqrt(ngs.Integrate(ngs.InnerProduct(scheme.velocity, scheme.velocity), mesh)),
+            "pressure": math.sqrt(ngs.Integrate(scheme.pressure**2, mesh, definedon=mesh.Materials(FLUID))),
+            "stress": math.sqrt(max(ngs.InnerProduct(sigma, mass * sigma), 0.0))}
+
+
+def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
+    """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
+    from tqdm.auto import tqdm
+
+    from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
+    from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
+
+    started = clock.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    checkpoints = out / "checkpoints"
+    scheme = build_scheme(case)
+    setup = clock.perf_counter() - started
+    fields, stress = scheme_fields(scheme)
+    series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
+                       refresh=stress) if case.output["vtk"] else None
+    probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
+    history = {"time": [], "energy": []}
+    resumed_from = None
+    if resume and (latest := latest_checkpoint(checkpoints)) is not None:
+        extra = load_checkpoint(latest, scheme)
+        history = extra["history"]
+        probes.restore(extra["probes"])
+        if series is not None:
+            series.restore(extra["vtk"])
+        resumed_from = scheme.n
+    else:
+        history["time"].append(0.0)
+        history["energy"].append(scheme.energy())
+        probes.record(scheme)
+        if series is not None:
+            series.write(0.0, 0)
+
+    def extra() -> dict:
+        return {"history": history, "probes": probes.state(), "vtk": series.entries if series else []}
+
+    def finish(status: str) -> dict:
+        probes.write_csv(out)
+        energy_plot(history["time"], history["energy"], out / "energy.png")
+        if case.output["probes"]:
+            probe_plot(probes, out / "probes.png")
+        summary = {
+            "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
+            "inputs": {"geometry": case.geometry, "materials": case.materials.as_dict(), "T": case.T, "dt": case.dt,
+                       "family": case.discretisation.family, "order": case.discretisation.order},
+            "mesh": {"vertices": case.mesh.nv, "cells": case.mesh.ne},
+            "dofs": {"free": scheme.spaces.free_dofs(), "velocity": scheme.spaces.velocity.ndof,
+                     "pressure": sum(scheme.spaces.pressure.FreeDofs()), "stress": scheme.spaces.stress.ndof},
+            "solver": {"method": scheme.solver.method, "residual": scheme.solver.residual},
+            "seconds": {"setup": setup, "factorisation": scheme.solver.factor_seconds,
+                        "total": clock.perf_counter() - started},
+            "resumed_from": resumed_from,
+            "energy": history,
+            "l2_norms": l2_norms(scheme),
+        }
+        write_summary(out / "summary.json", summary)
+        return summary
+
+    every, keep = case.output["every"], case.checkpoint_every
+    with _Interrupt() as interrupt, tqdm(total=case.steps, initial=scheme.n, disable=quiet, unit="step",
+                                         desc=case.path.stem) as bar:
+        while scheme.n < case.steps:
+            scheme.step()
+            if not np.all(np.isfinite(scheme.state.vec.FV().NumPy())):
+                last = latest_checkpoint(checkpoints)
+                finish("diverged")
+                raise SolveDiverged(f"the solution is not finite at step {scheme.n} (t = {scheme.time:g}); "
+                                    f"last good checkpoint: {last if last else 'none'}")
+            history["time"].append(scheme.time)
+            history["energy"].append(scheme.energy())
+            probes.record(scheme)
+            if series is not None and (scheme.n % every == 0 or scheme.n == case.steps):
+                series.write(scheme.time, scheme.n)
+            if scheme.n % keep == 0 or interrupt.requested:
+                save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
+            bar.update(1)
+            if interrupt.requested:
+                finish("interrupted")
+                raise KeyboardInterrupt
+    return finish("completed")

@@ -1,0 +1,205 @@
+"""`fsivsp run`: outputs, checkpoints and resume, interruption, divergence, and bad input."""
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from fsivsp.cli import main
+
+CASE = """
+[geometry]
+kind = "elastic_tube"
+dim = 2
+maxh = 0.1
+length = 2.0
+
+[materials]
+rho_fluid = 1.0
+rho_solid = 1.2
+nu = 0.035
+young = 3.0e6
+poisson = 0.3
+
+[time]
+T = {T}
+dt = 5.0e-5
+
+[discretisation]
+family = "mini"
+
+[boundary.inflow]
+traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)", "0"]
+
+[boundary.solid_wall]
+traction = ["0", "0"]
+
+[boundary.solid_ends]
+velocity = ["0", "0"]
+
+[output]
+every = 10
+probes = [[0.5, 0.0], [1.0, 0.0]]
+lines = [{{ start = [0.0, 0.0], end = [2.0, 0.0], n = 11 }}]
+
+[checkpoint]
+every = {every}
+"""
+
+
+def write_case(tmp_path, T=0.002, every=10, text=None):
+    path = tmp_path / "tube.toml"
+    path.write_text(text if text is not None else CASE.format(T=T, every=every))
+    return path
+
+
+def cli(*args, **kwargs):
+    return subprocess.Popen([sys.executable, "-m", "fsivsp.cli", *map(str, args)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kwargs)
+
+
+def test_run_writes_series_probes_plots_and_summary(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", str(write_case(tmp_path)), "--out", str(out), "--quiet"]) == 0
+    pvd = (out / "vtk" / "fields.pvd").read_text()
+    files = sorted((out / "vtk").glob("fields_*.vtu"))
+    assert len(files) == 5 and pvd.count("<DataSet") == 5 and 'timestep="0.002' in pvd
+    mesh = meshio.read(files[-1])
+    for name, width in {"velocity": 2, "pressure": 1, "stress": 4, "von_mises": 1, "displacement": 2}.items():
+        data = mesh.point_data[name]
+        assert data.shape[0] == len(mesh.points) and (data.shape[1] if data.ndim == 2 else 1) == width
+        assert np.all(np.isfinite(data))
+    assert np.abs(mesh.point_data["pressure"]).max() > 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["step"] == 40
+    assert set(summary["l2_norms"]) == {"velocity", "pressure", "stress"} and summary["l2_norms"]["pressure"] > 0
+    assert len(summary["energy"]["time"]) == 41 and summary["dofs"]["free"] > 0
+    rows = list(csv.DictReader((out / "probes.csv").open()))
+    assert len(rows) == 41 and {"p0_p", "p1_v1"} <= set(rows[0])
+    assert len(list(csv.DictReader((out / "lines.csv").open()))) == 41 * 11
+    for png in ("energy.png", "probes.png"):
+        assert (out / png).read_bytes()[:4] == b"\x89PNG"
+
+
+def final_fields(out: Path) -> dict:
+    last = sorted((out / "vtk").glob("fields_*.vtu"))[-1]
+    return meshio.read(last).point_data
+
+
+def wait_for(path_glob, directory: Path, timeout=120):
+    start = time.time()
+    while time.time() - start < timeout:
+        if directory.exists() and list(directory.glob(path_glob)):
+            return
+        time.sleep(0.05)
+    raise TimeoutError(path_glob)
+
+
+def test_killed_run_resumes_to_identical_results(tmp_path):
+    case = write_case(tmp_path, T=0.004, every=20)
+    reference = tmp_path / "reference"
+    assert main(["run", str(case), "--out", str(reference), "--quiet"]) == 0
+    out = tmp_path / "killed"
+    process = cli("run", case, "--out", out, "--quiet")
+    wait_for("checkpoint_000040.npz", out / "checkpoints")
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    assert main(["run", str(case), "--out", str(out), "--resume", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["resumed_from"] is not None and summary["resumed_from"] >= 40
+    ours, theirs = final_fields(out), final_fields(reference)
+    for name in theirs:
+        assert np.array_equal(ours[name], theirs[name]), name
+    assert (out / "probes.csv").read_text() == (reference / "probes.csv").read_text()
+    assert (out / "vtk" / "fields.pvd").read_text() == (reference / "vtk" / "fields.pvd").read_text()
+
+
+def test_ctrl_c_writes_a_checkpoint_and_stops_cleanly(tmp_path):
+    case = write_case(tmp_path, T=0.02, every=1000)
+    out = tmp_path / "out"
+    process = cli("run", case, "--out", out, "--quiet")
+    wait_for("fields_000010.vtu", out / "vtk")
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130 and "Traceback" not in err and "--resume" in err
+    assert list((out / "checkpoints").glob("checkpoint_*.npz"))
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+
+
+def test_a_non_finite_solution_stops_with_the_step_number(tmp_path, capsys):
+    text = CASE.format(T=0.002, every=10).replace("[boundary.inflow]", '[data]\nforce_fluid = ["log(x - 100)", "0"]\n\n[boundary.inflow]')
+    out = tmp_path / "out"
+    assert main(["run", str(write_case(tmp_path, text=text)), "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err
+    assert "not finite at step 1" in err and "\n" not in err.strip()
+    assert (out / "vtk" / "fields_000000.vtu").exists()
+    assert json.loads((out / "summary.json").read_text())["status"] == "diverged"
+
+
+BAD = [
+    ("[geometry]", "[geometry]\ncolour = 1", "geometry.colour"),
+    ('kind = "elastic_tube"', 'kind = "pipe"', "geometry.kind"),
+    ("dim = 2", "dim = 5", "geometry.dim"),
+    ("dim = 2", 'dim = "2"', "geometry.dim"),
+    ("maxh = 0.1", "maxh = 0", "geometry.maxh"),
+    ("length = 2.0", "length = -2.0", "geometry.length"),
+    ("rho_fluid = 1.0", "rho_fluid = 0", "materials.rho_fluid"),
+    ("rho_solid = 1.2", "rho_solid = -1.2", "materials.rho_solid"),
+    ("nu = 0.035", "nu = 0", "materials.nu"),
+    ("nu = 0.035", 'nu = "water"', "materials.nu"),
+    ("young = 3.0e6", "young = -3.0e6", "materials.young"),
+    ("poisson = 0.3", "poisson = 0.5", "materials.poisson"),
+    ("poisson = 0.3", "poisson = 0.3\nmu = 1.0", "materials.mu"),
+    ("young = 3.0e6", "youngs = 3.0e6", "materials.youngs"),
+    ("T = 0.002", "T = -1", "time.T"),
+    ("dt = 5.0e-5", "dt = 0", "time.dt"),
+    ("dt = 5.0e-5", "dt = 1.0", "time.dt"),
+    ("[time]", "[time]\nsteps = 3", "time.steps"),
+    ('family = "mini"', 'family = "p2p1"', "discretisation.family"),
+    ('family = "mini"', 'family = "taylor_hood"\norder = 0', "discretisation.order"),
+    ('family = "mini"', 'family = "mini"\nsolver = "magic"', "discretisation.solver"),
+    ("[boundary.inflow]", "[boundary.inlet]", "boundary.inlet"),
+    ("[boundary.solid_ends]", "[boundary.interface]", "boundary.interface"),
+    ('traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)", "0"]', 'traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)"]', "boundary.inflow.traction"),
+    ('traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)", "0"]', 'traction = ["pressure(t)", "0"]', "boundary.inflow.traction[0]"),
+    ('traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)", "0"]', 'pressure = "1"', "boundary.inflow.pressure"),
+    ('velocity = ["0", "0"]', 'velocity = ["0", "0"]\ntraction = ["0", "0"]', "boundary.solid_ends"),
+    ('velocity = ["0", "0"]', 'velocity = ["os.system(1)", "0"]', "boundary.solid_ends.velocity[0]"),
+    ('velocity = ["0", "0"]', 'velocity = ["__import__", "0"]', "boundary.solid_ends.velocity[0]"),
+    ('velocity = ["0", "0"]', 'velocity = ["z", "0"]', "boundary.solid_ends.velocity[0]"),
+    ("every = 10\n", "every = 0\n", "output.every"),
+    ("every = 10\n", "every = 10\nformat = \"vtk\"\n", "output.format"),
+    ("probes = [[0.5, 0.0], [1.0, 0.0]]", "probes = [[0.5, 0.0, 1.0]]", "output.probes[0]"),
+    ("n = 11", "n = 0", "output.lines[0].n"),
+    ("[checkpoint]\nevery = 10", "[checkpoint]\nevery = -5", "checkpoint.every"),
+    ("[checkpoint]\nevery = 10", "[checkpoint]\nevery = 10\nkeep = 3", "checkpoint.keep"),
+    ("[output]", "[outputs]", "outputs"),
+    ("[materials]", "[materials]\nrho = 1", "materials.rho"),
+    ('[discretisation]', '[data]\nvelocity0 = ["1", "2", "3"]\n\n[discretisation]', "data.velocity0"),
+    ('[discretisation]', '[data]\nforce = ["1", "2"]\n\n[discretisation]', "data.force"),
+    ('[discretisation]', '[data]\nforce_fluid = ["lambda: 1", "0"]\n\n[discretisation]', "data.force_fluid[0]"),
+    ('[discretisation]', '[data]\ndisplacement0 = ["x.real", "0"]\n\n[discretisation]', "data.displacement0[0]"),
+]
+
+
+@pytest.mark.parametrize("old, new, field", BAD, ids=[b[2] + f"-{i}" for i, b in enumerate(BAD)])
+def test_bad_input_exit_2_naming_the_field(tmp_path, capsys, old, new, field):
+    text = CASE.format(T=0.002, every=10)
+    assert old in text, old
+    out = tmp_path / "out"
+    assert main(["run", str(write_case(tmp_path, text=text.replace(old, new, 1))), "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and field in err and "Traceback" not in err, err
+    assert not out.exists()
+
+
+def test_not_toml(tmp_path, capsys):
+    assert main(["run", str(write_case(tmp_path, text="[geometry\nkind = 1")), "--quiet"]) == 2
+    assert "not valid TOML" in capsys.readouterr().err
