@@ -13,9 +13,12 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Iterable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import sympy
+
+if TYPE_CHECKING:  # ngsolve is imported lazily: parsing works without it
+    import ngsolve
 
 __all__ = [
     "X",
@@ -38,6 +41,9 @@ SPACE = (X, Y, Z)
 MAX_LENGTH = 2000
 MAX_DEPTH = 100
 MAX_EXPONENT = 64
+SIMPLE_TOKENS = 24  # longer function arguments / powers are built unevaluated
+MAX_EXPONENT_NESTING = 8  # x**y**z has 2 levels; sympy gets slow on tall towers
+MAX_EXACT_ROOT_BASE = 2**64  # larger rational bases of fractional powers become floats
 MAX_DECIMAL_EXPONENT = 400  # bound on the power of ten of a literal (1e-3, 2.5e10 ...)
 MAX_SEPARATED_TERMS = 20000  # separate_time gives up (returns None) beyond this
 
@@ -129,6 +135,11 @@ class _Parser:
     def unexpected(self, tok: _Token | None) -> ExpressionError:
         if tok is None:
             return self.error("unexpected end of expression", "; " + _expected(self.dim))
+        if tok.kind == "bad":
+            return self.error(
+                f"unexpected character {tok.text!r} at position {tok.pos}",
+                f"{_HINTS.get(tok.text, '')}; {_expected(self.dim)}",
+            )
         return self.error(
             f"unexpected {tok.text!r} at position {tok.pos}", "; " + _expected(self.dim)
         )
@@ -140,13 +151,9 @@ class _Parser:
         pos = 0
         while pos < len(text):
             m = _TOKEN_RE.match(text, pos)
-            if m is None:
-                ch = text[pos]
-                hint = _HINTS.get(ch, "")
-                raise self.error(
-                    f"unexpected character {ch!r} at position {pos}",
-                    f"{hint}; {_expected(self.dim)}",
-                )
+            if m is None:  # reported when the parser reaches it
+                tokens.append(_Token("bad", text[pos], pos))
+                break
             kind = m.lastgroup or ""
             if kind != "space":
                 tokens.append(_Token(kind, m.group(), pos))
@@ -188,6 +195,13 @@ class _Parser:
             raise self.error("expression is not finite (division by zero?)")
         if expr.has(sympy.I):
             raise self.error("expression is not real-valued")
+        for node in sympy.preorder_traversal(expr):
+            if isinstance(node, sympy.Pow) and node.exp.is_Number:
+                if abs(node.exp) > MAX_EXPONENT:
+                    raise self.error(
+                        f"exponent {node.exp} too large after combining powers "
+                        f"(at most {MAX_EXPONENT} in absolute value)"
+                    )
         return expr
 
     def expr(self) -> tuple[sympy.Expr, float | None]:
@@ -227,13 +241,14 @@ class _Parser:
         return self.power()
 
     def power(self) -> tuple[sympy.Expr, float | None]:
+        start = self.i
         base = self.primary()
         if not self.accept("**"):
             return base
         self.enter()
         exponent = self.unary()  # right-associative, and 2**-1 is allowed
         self.depth -= 1
-        return self.binary("**", base, exponent)
+        return self.binary("**", base, exponent, simple=self.i - start <= SIMPLE_TOKENS)
 
     def primary(self) -> tuple[sympy.Expr, float | None]:
         tok = self.take()
@@ -304,7 +319,9 @@ class _Parser:
                 f"function {name!r} must be called with one argument, e.g. {name}(x),"
             )
         self.enter()
+        start = self.i
         arg, value = self.expr()
+        simple = self.i - start <= SIMPLE_TOKENS
         if self.peek() is not None and self.peek().text == ",":  # type: ignore[union-attr]
             raise self.error(f"{name} takes exactly one argument")
         assert opening is not None
@@ -317,9 +334,10 @@ class _Parser:
                 raise self.error(f"{name}({_float_text(value)}) is not a finite real number")
             self.check_value(value)
         func = _FUNCTIONS[name]
-        if value is not None and arg.atoms(sympy.Function):
-            # sympy's automatic simplification of nested functions of constants
-            # can be very slow (sin(sin(sin(...(1))))); keep such nodes as they are.
+        if not simple or (value is not None and _has_function(arg)):
+            # sympy's automatic simplification of functions of long arguments, or of
+            # nested functions of constants (sin(sin(...(1)))), can be very slow:
+            # keep such nodes as they are.
             return self.finish(func(arg, evaluate=False), value)
         return self.finish(func(arg), value)
 
@@ -333,6 +351,7 @@ class _Parser:
         op: str,
         left: tuple[sympy.Expr, float | None],
         right: tuple[sympy.Expr, float | None],
+        simple: bool = True,
     ) -> tuple[sympy.Expr, float | None]:
         a, av = left
         b, bv = right
@@ -343,6 +362,12 @@ class _Parser:
                     f"exponent {_float_text(bv)} too large (at most {MAX_EXPONENT} "
                     "in absolute value)"
                 )
+            if bv is None or not b.is_Number:
+                if 1 + _exponent_height(b) > MAX_EXPONENT_NESTING:
+                    raise self.error(
+                        f"powers nested too deeply (at most {MAX_EXPONENT_NESTING} "
+                        "levels of non-numeric exponents)"
+                    )
             if av is not None and bv is not None:
                 try:
                     value = math.pow(av, bv)
@@ -355,8 +380,17 @@ class _Parser:
                         f"({_float_text(av)})**({_float_text(bv)}) is not a real number"
                     )
                 self.check_value(value)
-                if _has_function(a) or _has_function(b):
-                    return self.finish(sympy.Pow(a, b, evaluate=False), value)
+            if a.is_Rational and b.is_Rational and not b.is_Integer:
+                if b.q > MAX_EXPONENT or max(abs(a.p), a.q) > MAX_EXACT_ROOT_BASE:
+                    # sympy's exact roots factor the base (of a power of it): far too
+                    # slow for huge numbers, so use the float value instead
+                    assert value is not None
+                    return self.finish(sympy.Float(value), value)
+            if a.is_Rational and b.is_Rational:
+                return self.finish(sympy.Pow(a, b), value)
+            if not simple or (value is not None and (_has_function(a) or _has_function(b))):
+                # as for functions: sympy's evaluation of large powers can be very slow
+                return self.finish(sympy.Pow(a, b, evaluate=False), value)
             return self.finish(sympy.Pow(a, b), value)
         if op == "/":
             if bv is not None and b.is_zero:
@@ -390,6 +424,19 @@ class _Parser:
         if value is not None and (expr.has(sympy.zoo, sympy.nan) or expr.has(sympy.I)):
             raise self.error("expression is not a finite real number")
         return expr, value
+
+
+def _exponent_height(expr: sympy.Basic) -> int:
+    """Height of the tower of non-numeric exponents in ``expr`` (x**y**z -> 2)."""
+    if not expr.args:
+        return 0
+    if isinstance(expr, sympy.Pow):
+        base, exponent = expr.args
+        height = _exponent_height(base)
+        if not exponent.is_Number:
+            height = max(height, 1 + _exponent_height(exponent))
+        return height
+    return max(_exponent_height(a) for a in expr.args)
 
 
 def _has_function(expr: sympy.Expr) -> bool:
@@ -426,7 +473,15 @@ def parse(text: str, field: str, dim: int = 3) -> sympy.Expr:
         raise ExpressionError(
             f"{field}: expression too long ({len(text)} characters, at most {MAX_LENGTH})"
         )
-    return _Parser(text, field, dim).parse()
+    try:
+        return _Parser(text, field, dim).parse()
+    except ExpressionError:
+        raise
+    except Exception as err:  # noqa: BLE001 - parse promises ExpressionError only
+        # internal failures of sympy's automatic simplification on odd input
+        raise ExpressionError(
+            f"{field}: cannot process {_show(text)} ({type(err).__name__})"
+        ) from err
 
 
 def parse_vector(items: Any, field: str, dim: int) -> list[sympy.Expr]:
@@ -467,6 +522,10 @@ def _cot(v: float) -> float:
     return 1.0 / math.tan(v)
 
 
+def _zero(v: float) -> float:
+    return 0.0
+
+
 def _sign(v: float) -> float:
     return float((v > 0) - (v < 0))
 
@@ -482,6 +541,8 @@ _MATH: dict[Any, Callable[[float], float]] = {
     sympy.log: math.log,
     sympy.Abs: abs,
     sympy.sign: _sign,
+    sympy.re: float,
+    sympy.im: _zero,
     sympy.sinh: math.sinh,
     sympy.cosh: math.cosh,
     sympy.tanh: math.tanh,
@@ -645,7 +706,7 @@ def to_function(expr: sympy.Expr, var: sympy.Symbol = T) -> Callable[[float], fl
 # --------------------------------------------------------------- to_coefficient
 
 
-def to_coefficient(expr: Any, t: Any) -> Any:
+def to_coefficient(expr: Any, t: Any) -> ngsolve.CoefficientFunction:
     """Turn a sympy expression (or vector/matrix of them) into an NGSolve CoefficientFunction.
 
     ``t`` is an ``ngsolve.Parameter`` (or a float) standing for the time variable.
@@ -753,8 +814,10 @@ def _to_cf_pow(expr: sympy.Pow, t: Any, memo: dict[sympy.Expr, Any], ngsolve: An
             return 1.0 / ngsolve.sqrt(base)
         return base**exponent
     if isinstance(base, float):
-        return ngsolve.exp(exponent * math.log(base))
-    return ngsolve.exp(exponent * ngsolve.log(base))
+        if base > 0:
+            return ngsolve.exp(exponent * math.log(base))
+        return ngsolve.CoefficientFunction(base) ** exponent
+    return base**exponent
 
 
 def _to_cf_function(expr: sympy.Expr, t: Any, memo: dict[sympy.Expr, Any], ngsolve: Any) -> Any:
@@ -762,6 +825,8 @@ def _to_cf_function(expr: sympy.Expr, t: Any, memo: dict[sympy.Expr, Any], ngsol
         raise ValueError(f"to_coefficient: unsupported expression {expr}")
     a = _to_cf(expr.args[0], t, memo, ngsolve)
     f = expr.func
+    if isinstance(a, float) and f in _MATH:  # e.g. a function of t for a float t
+        return float(_MATH[f](a))
     direct = {
         sympy.sin: "sin",
         sympy.cos: "cos",
@@ -787,6 +852,10 @@ def _to_cf_function(expr: sympy.Expr, t: Any, memo: dict[sympy.Expr, Any], ngsol
         return (e2 - 1.0) / (e2 + 1.0)
     if f is sympy.sign:
         return ngsolve.IfPos(a, 1.0, ngsolve.IfPos(-a, -1.0, 0.0))
+    if f is sympy.re:  # sympy's simplification may wrap real values in re(...)
+        return a
+    if f is sympy.im:
+        return 0.0
     raise ValueError(f"to_coefficient: unsupported expression {expr}")
 
 
@@ -905,7 +974,7 @@ def _separate(expr: sympy.Expr) -> _Terms | None:
                     _add_into(out, (tm, sm), sympy.binomial(n, k) * c1 * c2)
                 return out
             part = _separate(base)
-            if part is None:
+            if part is None or n > MAX_EXPONENT:
                 return None
             acc = part
             for _ in range(n - 1):
