@@ -116,6 +116,8 @@ def build_parser() -> Parser:
     matrix.add_argument("--slow", action="store_true", help="include the slow entries (TH3 2D, 3D balls, TH2 3D)")
     matrix.add_argument("--markdown", type=Path, default=None, metavar="PATH", help="also write the table to PATH")
     matrix.add_argument("--json", type=Path, default=None, metavar="PATH", help="write the rates and records to PATH")
+    matrix.add_argument("--readme", type=Path, default=None, metavar="PATH",
+                        help="replace the table between <!-- matrix:begin --> and <!-- matrix:end --> in PATH")
     matrix.add_argument("--quiet", action="store_true", help="no progress bar")
     matrix.set_defaults(handler=matrix_command)
     return parser
@@ -245,6 +247,13 @@ def matrix_command(args) -> int:
     print(table)
     if args.markdown:
         write_atomic(args.markdown, table + "\n")
+    if args.readme:
+        text = args.readme.read_text()
+        begin, end = "<!-- matrix:begin -->", "<!-- matrix:end -->"
+        if begin not in text or end not in text:
+            raise UsageError(f"fsivsp matrix: --readme: {args.readme} has no {begin} ... {end} markers")
+        head, rest = text.split(begin, 1)
+        write_atomic(args.readme, head + begin + "\n" + table + "\n" + end + rest.split(end, 1)[1])
     if args.json:
         write_json(args.json, records)
     return 0 if all(r["passed"] for r in records) else 1
