@@ -24,7 +24,11 @@ import time
 
 import numpy as np
 import ngsolve as ngs
-from netgen.occ import Circle, Glue, OCCGeometry, Rectangle
+
+from fsivsp.forms import step_matrix
+from fsivsp.geometry import paper_channel, refined
+from fsivsp.materials import Materials
+from fsivsp.spaces import build_spaces
 
 from fsivsp.solvers import DirectSolver, SolverError, available_methods, default_method
 
@@ -34,46 +38,17 @@ DT, RHO, NU, LAM, MU = 1e-2, 1.0, 0.5, 1.0, 0.5
 
 
 def build_mesh(level: int) -> ngs.Mesh:
-    rect = Rectangle(2.5, 0.41).Face()
-    disk = Circle((0.2, 0.2), 0.05).Face()
-    solid = rect - disk
-    solid.faces.name = "solid"
-    disk.faces.name = "fluid"
-    solid.edges.name = "solid_wall"
-    disk.edges.name = "interface"
-    mesh = ngs.Mesh(OCCGeometry(Glue([solid, disk]), dim=2).GenerateMesh(maxh=0.15, grading=0.3))
-    for _ in range(level):
-        mesh.Refine()
-    return mesh
+    """The paper's channel refined ``level`` times."""
+    return refined(paper_channel(), level)
 
 
 def build_system(level: int = 0, symmetric: bool = True, symmetric_storage: bool = False, mesh=None):
-    """(mesh, X, a): the assembled step-1 BilinearForm ``a`` on X = V x Q."""
-    from ngsolve import CELL, VOL, H1, BilinearForm, Grad, InnerProduct, NodeId, Sym, VectorH1, div, dx
-
+    """(mesh, X, a): the assembled step-1 BilinearForm ``a`` on X = V x Q (the scheme's own form)."""
     mesh = build_mesh(level) if mesh is None else mesh
-    V = VectorH1(mesh, order=1, dirichlet="solid_wall")
-    for el in mesh.Elements(VOL):
-        if el.mat == "fluid":
-            V.SetOrder(NodeId(CELL, el.nr), 3)
-    V.Update()
-    Q = H1(mesh, order=1, definedon="fluid")
-    X = V * Q
-    (v, p), (w, q) = X.TnT()
-
-    def eps(u):
-        return Sym(Grad(u))
-
-    kwargs = {"symmetric": symmetric}
-    if symmetric_storage:
-        kwargs["symmetric_storage"] = True
-    a = BilinearForm(X, **kwargs)
-    a += RHO * v * w * dx
-    a += 2 * NU * DT * InnerProduct(eps(v), eps(w)) * dx("fluid")
-    a += (2 * MU * DT**2 * InnerProduct(eps(v), eps(w)) + LAM * DT**2 * div(v) * div(w)) * dx("solid")
-    a += (-DT * p * div(w) - DT * q * div(v)) * dx("fluid")
-    a.Assemble()
-    return mesh, X, a
+    spaces = build_spaces(mesh, "mini", dirichlet="solid_wall")
+    storage = {"symmetric": symmetric} | ({"symmetric_storage": True} if symmetric_storage else {})
+    a = step_matrix(spaces, Materials(RHO, RHO, NU, LAM, MU), DT, **storage).Assemble()
+    return mesh, spaces.mixed, a
 
 
 # (label, method, options): "main" are the DirectSolver defaults, the rest tuning variants

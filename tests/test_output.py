@@ -10,7 +10,6 @@ import ngsolve as ngs
 import pytest
 
 import fsivsp
-from fsivsp import output
 from fsivsp.expressions import parse_vector
 from fsivsp.output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
 

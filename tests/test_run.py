@@ -1,7 +1,6 @@
 """`fsivsp run`: outputs, checkpoints and resume, interruption, divergence, and bad input."""
 import csv
 import json
-import os
 import signal
 import subprocess
 import sys

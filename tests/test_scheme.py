@@ -1,7 +1,6 @@
 """Properties of the scheme (5.1) beyond the paper's tables: energy, displacement recovery (5),
 one factorisation per run."""
 import ngsolve as ngs
-import numpy as np
 import pytest
 
 from fsivsp import forms

@@ -5,7 +5,11 @@ import numpy as np
 import pytest
 
 import ngsolve as ngs
-from netgen.occ import Circle, Glue, OCCGeometry, Rectangle
+
+from fsivsp.forms import step_matrix
+from fsivsp.geometry import paper_channel, refined
+from fsivsp.materials import Materials
+from fsivsp.spaces import build_spaces
 
 from fsivsp.solvers import (
     METHODS,
@@ -21,44 +25,14 @@ from fsivsp.solvers import (
 ngs.ngsglobals.msg_level = 0
 
 
-# A copy of the small builder of benchmarks/solver_comparison.py (kept self-contained).
 def _mesh(level):
-    rect = Rectangle(2.5, 0.41).Face()
-    disk = Circle((0.2, 0.2), 0.05).Face()
-    solid = rect - disk
-    solid.faces.name = "solid"
-    disk.faces.name = "fluid"
-    solid.edges.name = "solid_wall"
-    disk.edges.name = "interface"
-    mesh = ngs.Mesh(OCCGeometry(Glue([solid, disk]), dim=2).GenerateMesh(maxh=0.15, grading=0.3))
-    for _ in range(level):
-        mesh.Refine()
-    return mesh
+    return refined(paper_channel(), level)
 
 
-def _system(mesh, **bfkwargs):
-    from ngsolve import CELL, VOL, H1, BilinearForm, Grad, InnerProduct, NodeId, Sym, VectorH1, div, dx
-
-    V = VectorH1(mesh, order=1, dirichlet="solid_wall")
-    for el in mesh.Elements(VOL):
-        if el.mat == "fluid":
-            V.SetOrder(NodeId(CELL, el.nr), 3)
-    V.Update()
-    Q = H1(mesh, order=1, definedon="fluid")
-    X = V * Q
-    (v, p), (w, q) = X.TnT()
-    dt, rho, nu, lam, mu = 1e-2, 1.0, 0.5, 1.0, 0.5
-
-    def eps(u):
-        return Sym(Grad(u))
-
-    a = BilinearForm(X, **bfkwargs)
-    a += rho * v * w * dx
-    a += 2 * nu * dt * InnerProduct(eps(v), eps(w)) * dx("fluid")
-    a += (2 * mu * dt**2 * InnerProduct(eps(v), eps(w)) + lam * dt**2 * div(v) * div(w)) * dx("solid")
-    a += (-dt * p * div(w) - dt * q * div(v)) * dx("fluid")
-    a.Assemble()
-    return X, a
+def _system(mesh, **storage):
+    """The scheme's step-1 matrix on the paper's channel (MINI, Δt = 1e-2)."""
+    spaces = build_spaces(mesh, "mini", dirichlet="solid_wall")
+    return spaces.mixed, step_matrix(spaces, Materials(), 1e-2, **storage).Assemble()
 
 
 STORAGES = {

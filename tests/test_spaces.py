@@ -1,7 +1,6 @@
 """The MINI spaces of Section 5.2.1: bubbles on fluid cells only, so that condition (18) holds."""
 import ngsolve as ngs
 import numpy as np
-import pytest
 
 from fsivsp import forms
 from fsivsp.geometry import FLUID, SOLID, region_counts

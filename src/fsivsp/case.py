@@ -8,7 +8,7 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -139,8 +139,8 @@ def read_time(table: dict) -> tuple[float, float]:
 
 
 @dataclass
-class StudyCase:
-    """A manufactured-solution case file, validated."""
+class CaseFile:
+    """The sections every case file has, validated."""
 
     path: Path
     geometry: dict[str, Any]
@@ -149,8 +149,13 @@ class StudyCase:
     T: float
     dt: float
     discretisation: Discretisation
+
+
+@dataclass
+class StudyCase(CaseFile):
+    """A manufactured-solution case file (``fsivsp study``)."""
+
     exact: Any = None
-    extra: dict = field(default_factory=dict)
 
 
 def read_geometry(table: dict) -> tuple[dict, int]:
@@ -185,7 +190,7 @@ def load_study_case(path: str | Path) -> StudyCase:
     return StudyCase(Path(path), geometry, dim, materials, T, dt, disc, exact)
 
 
-def to_study(case: StudyCase) -> "Case":
+def to_study(case: StudyCase):
     """The `study.Case` of a validated case file."""
     from .geometry import build_geometry
     from .study import Case

@@ -40,13 +40,13 @@ def density(mat: Materials, mesh: ngs.Mesh) -> ngs.CoefficientFunction:
     return mesh.MaterialCF({FLUID: mat.rho_fluid, SOLID: mat.rho_solid}, default=0)
 
 
-def step_matrix(spaces: Spaces, mat: Materials, dt: float) -> ngs.BilinearForm:
+def step_matrix(spaces: Spaces, mat: Materials, dt: float, **storage) -> ngs.BilinearForm:
     """Left-hand side of step 1 of (5.1), symmetric and indefinite:
     ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w) + λΔt² ∫_S div v div w
-    − Δt ∫_F p div w − Δt ∫_F q div v."""
+    − Δt ∫_F p div w − Δt ∫_F q div v. ``storage``: BilinearForm flags (symmetric, symmetric_storage)."""
     (v, p), (w, q) = spaces.mixed.TnT()
     rho = density(mat, spaces.mesh)
-    a = ngs.BilinearForm(spaces.mixed)
+    a = ngs.BilinearForm(spaces.mixed, **storage)
     a += integral(rho * InnerProduct(v, w), spaces)
     a += integral(2 * mat.nu * dt * InnerProduct(eps(v), eps(w)), spaces, FLUID)
     a += integral(2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w), spaces, SOLID)

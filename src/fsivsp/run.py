@@ -19,12 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from .case import (CaseError, Discretisation, check_keys, read_discretisation, read_geometry, read_materials,
+from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_geometry, read_materials,
                    read_time, read_toml, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
-from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, GeometryError, build_geometry
-from .materials import Materials
+from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
@@ -37,16 +36,9 @@ class SolveDiverged(RuntimeError):
 
 
 @dataclass
-class RunCase:
-    """A validated production case."""
+class RunCase(CaseFile):
+    """A validated production case (``fsivsp run``)."""
 
-    path: Path
-    geometry: dict[str, Any]
-    dim: int
-    materials: Materials
-    T: float
-    dt: float
-    discretisation: Discretisation
     data: dict[str, list]
     boundaries: dict[str, tuple[str, list]]
     output: dict[str, Any]

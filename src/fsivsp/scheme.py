@@ -91,7 +91,7 @@ class BackwardEuler:
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
-        X, S, mesh = spaces.mixed, spaces.stress, spaces.mesh
+        X, S = spaces.mixed, spaces.stress
 
         step = forms.step_matrix(spaces, materials, dt).Assemble()
         self._matrix = step.mat
