@@ -15,6 +15,8 @@ install: $(VENV)
 
 demo: $(VENV)
 	$(BIN)/fsivsp paper --dt 1e-2 --levels 0-3 --json demo/paper.json
+	$(BIN)/fsivsp study examples/fluid_over_solid_2d.toml --levels 0-2 --json demo/study.json
+	$(BIN)/fsivsp run examples/pressure_wave_2d.toml --out demo/pressure_wave_2d
 
 test: $(VENV)
 	$(BIN)/python -m pytest
