@@ -204,5 +204,5 @@ def to_study(case: StudyCase):
         coarse_mesh=lambda: coarse,
         materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
-        project_refinement=True, solver=disc.solver, curved=disc.curved,
+        project_refinement=disc.curved, solver=disc.solver, curved=disc.curved,
     )

@@ -26,9 +26,9 @@ class Entry:
 
     @property
     def levels(self) -> range:
-        """Three levels: 1–3 in 2D (level 0 is pre-asymptotic), 0–2 in 3D, 1–3 for the 3D balls
-        (their level-0 meshes have a handful of cells inside the ball)."""
-        if self.dim == 3 and self.configuration == "fluid_over_solid":
+        """Three levels: 1–3 in 2D (level 0 is pre-asymptotic); in 3D 0–2, except 1–3 for MINI and
+        Taylor–Hood k = 1 around a ball (their level-0 meshes have a handful of cells in the ball)."""
+        if self.dim == 3 and (self.configuration == "fluid_over_solid" or self.order >= 2):
             return range(0, 3)
         return range(1, 4)
 
