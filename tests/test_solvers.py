@@ -242,3 +242,16 @@ def test_lower_storage_spd(method):
     a += (u * v + ngs.grad(u) * ngs.grad(v)) * ngs.dx
     a.Assemble()
     assert DirectSolver(a.mat, V.FreeDofs(), method=method).residual < 1e-12
+
+
+def test_factorise_falls_back_and_reports_a_singular_matrix():
+    from fsivsp.solvers import factorise
+
+    X, a = _system(_mesh(0))
+    solver = factorise(a.mat, X.FreeDofs())
+    assert solver.residual < 1e-10
+    free = X.FreeDofs()
+    everything = ngs.BitArray(len(free))
+    everything.Set()  # pressure dofs outside the fluid have empty rows: singular
+    with pytest.raises(SolverError, match="no direct solver passed"):
+        factorise(a.mat, everything)

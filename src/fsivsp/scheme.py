@@ -20,7 +20,7 @@ from . import forms
 from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .materials import Materials
-from .solvers import DirectSolver
+from .solvers import factorise
 from .spaces import Spaces
 
 
@@ -95,7 +95,7 @@ class BackwardEuler:
 
         step = forms.step_matrix(spaces, materials, dt).Assemble()
         self._matrix = step.mat
-        self.solver = DirectSolver(step.mat, X.FreeDofs(), method=solver)
+        self.solver = factorise(step.mat, X.FreeDofs(), method=solver)
         self._mass = forms.velocity_mass(spaces, materials).Assemble().mat
         self._divergence = forms.stress_divergence(spaces).Assemble().mat
         self._rate = forms.stress_rate(spaces, materials).Assemble().mat

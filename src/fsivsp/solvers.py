@@ -390,3 +390,19 @@ class DirectSolver:
             f"DirectSolver(method={self.method!r}, n={self.matrix.height}, "
             f"residual={self.residual:.2e}, factor_seconds={self.factor_seconds:.3g})"
         )
+
+
+def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None = None) -> DirectSolver:
+    """A checked `DirectSolver`: the given ``method``, or else the available methods in order of
+    preference (pivoting ones first), taking the first whose residual check passes. A singular
+    matrix fails them all: the `SolverError` then lists every method's failure."""
+    if method is not None:
+        return DirectSolver(matrix, freedofs, method=method)
+    failures = []
+    candidates = [m for m in METHODS if m in PIVOTING_METHODS and m in available_methods()]
+    for candidate in candidates:
+        try:
+            return DirectSolver(matrix, freedofs, method=candidate)
+        except SolverError as error:
+            failures.append(str(error))
+    raise SolverError("no direct solver passed the residual check (is the matrix singular?): " + "; ".join(failures))
