@@ -8,9 +8,17 @@ p and σ in L²), 1 for MINI.
 """
 import pytest
 
-from fsivsp.verification import TABLE, run, worst
+from fsivsp.verification import SHORT_OF_EXPECTED, TABLE, run, worst
 
-PARAMS = [pytest.param(e, id=e.label, marks=[pytest.mark.slow] if e.slow else []) for e in TABLE]
+
+def marks(entry):
+    found = [pytest.mark.slow] if entry.slow else []
+    if entry.label in SHORT_OF_EXPECTED:
+        found.append(pytest.mark.xfail(strict=True, reason=SHORT_OF_EXPECTED[entry.label]))
+    return found
+
+
+PARAMS = [pytest.param(e, id=e.label, marks=marks(e)) for e in TABLE]
 
 
 @pytest.mark.parametrize("entry", PARAMS)

