@@ -83,7 +83,7 @@ def test_failed_save_keeps_good_checkpoint(tmp_path, mesh, monkeypatch):
         handle.write(b"PK\x03\x04 half a zip")
         raise OSError("disk full")
 
-    monkeypatch.setattr(checkpoint.np, "savez", crash)
+    monkeypatch.setattr(checkpoint.np, "savez_compressed", crash)
     with pytest.raises(OSError, match="disk full"):
         save_checkpoint(path, scheme, {"a": 2})
     monkeypatch.undo()

@@ -85,6 +85,8 @@ def test_run_writes_series_probes_plots_and_summary(tmp_path):
     assert len(list(csv.DictReader((out / "lines.csv").open()))) == 41 * 11
     for png in ("energy.png", "probes.png"):
         assert (out / png).read_bytes()[:4] == b"\x89PNG"
+    # the two newest checkpoints are kept
+    assert sorted(p.name for p in (out / "checkpoints").glob("*.npz")) == ["checkpoint_000030.npz", "checkpoint_000040.npz"]
 
 
 def final_fields(out: Path) -> dict:

@@ -89,13 +89,13 @@ def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path
         step=np.array(int(scheme.n), dtype=np.int64),
         time=np.array(float(scheme.time), dtype=np.float64),
         fingerprint=np.array(json.dumps(fingerprint(scheme), sort_keys=True)),
-        extra=np.array(extra_json),
+        extra=np.frombuffer(extra_json.encode(), dtype=np.uint8),  # UTF-8 bytes, not 4-byte characters
     )
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as handle:
-            np.savez(handle, **arrays)
+            np.savez_compressed(handle, **arrays)
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp, path)
@@ -166,7 +166,18 @@ def load_checkpoint(path: str | Path, scheme) -> dict:
         target[:] = contents[name]
     scheme.time = float(contents["time"])
     scheme.n = int(contents["step"])
-    return json.loads(str(contents["extra"]))
+    return json.loads(contents["extra"].tobytes().decode())
+
+
+def prune_checkpoints(directory: str | Path, keep: int = 2) -> None:
+    """Delete all but the ``keep`` newest checkpoints (by step) in ``directory``."""
+    def step(path: Path) -> int:
+        digits = path.stem.rsplit("_", 1)[-1]
+        return int(digits) if digits.isdigit() else -1
+
+    found = sorted(Path(directory).glob(f"{PREFIX}_*.npz"), key=step)
+    for old in found[:-keep] if keep > 0 else found:
+        old.unlink(missing_ok=True)
 
 
 def latest_checkpoint(directory: str | Path) -> Path | None:

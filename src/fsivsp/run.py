@@ -207,7 +207,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
     from tqdm.auto import tqdm
 
-    from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, save_checkpoint
+    from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
 
     started = clock.perf_counter()
@@ -277,6 +277,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 series.write(scheme.time, scheme.n)
             if scheme.n % keep == 0 or interrupt.requested:
                 save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
+                prune_checkpoints(checkpoints, keep=2)
             bar.update(1)
             if interrupt.requested:
                 finish("interrupted")
