@@ -39,28 +39,22 @@ def levels_arg(text: str) -> range:
     return range(low, high + 1)
 
 
-def positive_float():
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-        if not value > 0 or value == float("inf"):
-            raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-        return value
-    return parse
+def positive_float(text: str) -> float:
+    """A finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
 
 
-def positive_int():
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}") from None
-        if value < 1:
-            raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
-        return value
-    return parse
+def positive_int(text: str) -> int:
+    """A whole number ≥ 1."""
+    if not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
+    return int(text)
 
 
 def build_parser() -> Parser:
@@ -73,7 +67,7 @@ def build_parser() -> Parser:
     paper = commands.add_parser("paper", help="reproduce the experiment of Section 5.3 (Tables 1–8)",
                                 description="Run the paper's experiment (MINI element, backward Euler, T = 1) "
                                 "on uniformly refined meshes and print errors and rates next to the paper's.")
-    paper.add_argument("--dt", type=positive_float(), default=1e-2, help="time step (default 1e-2)")
+    paper.add_argument("--dt", type=positive_float, default=1e-2, help="time step (default 1e-2)")
     paper.add_argument("--levels", type=levels_arg, default=range(0, 5),
                        help="refinement levels, 'A-B' or 'A' (default 0-4)")
     paper.add_argument("--all", action="store_true",
@@ -87,7 +81,7 @@ def build_parser() -> Parser:
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
     paper.add_argument("--out", type=Path, default=Path("paper-report"), metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
-    paper.add_argument("--jobs", type=positive_int(), default=os.cpu_count() or 1,
+    paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
     paper.set_defaults(handler=paper_command)
