@@ -13,7 +13,7 @@ from typing import Callable
 import ngsolve as ngs
 import sympy
 
-from .expressions import T, separate_time, separate_time_vector, to_coefficient, to_function
+from .expressions import separate_time_vector, to_coefficient, to_function
 
 
 @dataclass
@@ -40,21 +40,12 @@ class Field:
         """The whole field as a CoefficientFunction, time from ``t`` (Parameter or float)."""
         return to_coefficient(self.expr, t).Compile()
 
-    def at(self, time: float) -> "Field":
-        return Field(self._shaped([c.subs(T, time) for c in self.components()]))
-
     def is_zero(self) -> bool:
         return all(sympy.simplify(c) == 0 for c in self.components())
 
     def separated(self) -> list[tuple[Callable[[float], float], ngs.CoefficientFunction]] | None:
         """[(T_k, F_k)] with f = Σ T_k(t) F_k(x), or None if f does not separate."""
-        comps = self.components()
-        if len(comps) == 1 and not isinstance(self.expr, (list, tuple, sympy.MatrixBase)):
-            terms = separate_time(comps[0])
-            if terms is None:
-                return None
-            return [(to_function(tk), to_coefficient(sk, 0.0).Compile()) for tk, sk in terms]
-        terms = separate_time_vector(comps)
+        terms = separate_time_vector(self.components())
         if terms is None:
             return None
         return [(to_function(tk), to_coefficient(self._shaped(sk), 0.0).Compile()) for tk, sk in terms]

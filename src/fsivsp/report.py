@@ -6,7 +6,6 @@ import os
 import tempfile
 from pathlib import Path
 
-QUANTITIES = ("v1", "v2", "p", "sigma", "total")
 HEADERS = {"v1": "e(v1)", "v2": "e(v2)", "v3": "e(v3)", "p": "e(p)", "sigma": "e(σ)", "total": "e(v,p,σ)"}
 
 

@@ -7,7 +7,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import ngsolve as ngs
-import sympy
 from tqdm.auto import tqdm
 
 from .fields import Field
@@ -54,7 +53,7 @@ def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, init
     if initial_stress not in INITIAL_STRESS:
         raise ValueError(f"initial_stress: expected one of {', '.join(INITIAL_STRESS)}, got {initial_stress!r}")
     return Data(
-        velocity0=Field([v.subs(sympy.Symbol("t", real=True), 0) for v in exact.velocity]),
+        velocity0=Field(exact.at_time(0).velocity),
         displacement0=Field(exact.at_time(0).displacement) if initial_stress == "displacement" else None,
         stress0=Field(exact.at_time(0).solid_stress(mat)) if initial_stress == "projection" else None,
         force_fluid=Field(exact.fluid_force(mat)),
