@@ -98,9 +98,9 @@ class BackwardEuler:
         self.solver = factorise(step.mat, X.FreeDofs(), method=solver)
         self._mass = forms.velocity_mass(spaces, materials).Assemble().mat
         self._divergence = forms.stress_divergence(spaces).Assemble().mat
-        self._rate = forms.stress_rate(spaces, materials).Assemble().mat
+        rate = forms.stress_rate(spaces, materials).Assemble().mat
         self._stress_inverse = block_inverse(forms.stress_mass(spaces).Assemble().mat, S)
-        self._stress_update = to_ngsolve(to_scipy(self._stress_inverse) @ to_scipy(self._rate))
+        self._stress_update = to_ngsolve(to_scipy(self._stress_inverse) @ to_scipy(rate))  # M_σ⁻¹C
         self._compliance = self._compliance_matrix()
 
         self._loads = self._load_vectors()
@@ -113,7 +113,6 @@ class BackwardEuler:
         self.time, self.n = 0.0, 0
         self._rhs = self.state.vec.CreateVector()
         self._boundary = self.state.vec.CreateVector()
-        self._work = self.state.vec.CreateVector()
         self.initialise()
 
     # -- precomputation -------------------------------------------------------------
@@ -218,9 +217,10 @@ class BackwardEuler:
             load += InnerProduct(d.stress0.coefficient(0.0), tau) * dx(SOLID, bonus_intorder=4)
             self.stress.vec.data = self._stress_inverse * load.Assemble().vec
         elif u0 is not None:
-            self._work[:] = 0.0
-            self._work[: len(u0.vec)] = u0.vec  # V_h is the first block of X_h
-            self.stress.vec.data = self._stress_inverse * (self._rate * self._work)
+            displacement = self.state.vec.CreateVector()
+            displacement[:] = 0.0
+            displacement[: len(u0.vec)] = u0.vec  # V_h is the first block of X_h
+            self.stress.vec.data = self._stress_update * displacement
         if self.displacement is not None:
             self.displacement.vec[:] = 0.0
             if u0 is not None:
