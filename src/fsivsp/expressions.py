@@ -204,29 +204,20 @@ class _Parser:
                     )
         return expr
 
-    def expr(self) -> tuple[sympy.Expr, float | None]:
-        left = self.term()
+    def _level(self, operand, operators: str) -> tuple[sympy.Expr, float | None]:
+        """A left-associative chain ``operand (op operand)*`` of one precedence level."""
+        left = operand()
         while True:
-            if self.accept("+"):
-                right = self.term()
-                left = self.binary("+", left, right)
-            elif self.accept("-"):
-                right = self.term()
-                left = self.binary("-", left, right)
-            else:
+            op = next((o for o in operators if self.accept(o)), None)
+            if op is None:
                 return left
+            left = self.binary(op, left, operand())
+
+    def expr(self) -> tuple[sympy.Expr, float | None]:
+        return self._level(self.term, "+-")
 
     def term(self) -> tuple[sympy.Expr, float | None]:
-        left = self.unary()
-        while True:
-            if self.accept("*"):
-                right = self.unary()
-                left = self.binary("*", left, right)
-            elif self.accept("/"):
-                right = self.unary()
-                left = self.binary("/", left, right)
-            else:
-                return left
+        return self._level(self.unary, "*/")
 
     def unary(self) -> tuple[sympy.Expr, float | None]:
         tok = self.peek()

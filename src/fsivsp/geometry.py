@@ -36,12 +36,16 @@ class GeometryError(ValueError):
     """A mesh without the regions the formulation needs."""
 
 
+#: The paper's domain (Section 5.3): channel width and height, disk centre (c, c) and radius.
+CHANNEL_WIDTH, CHANNEL_HEIGHT, DISK_CENTRE, DISK_RADIUS = 2.5, 0.41, 0.2, 0.05
+
+
 def paper_channel(maxh: float = 0.15, grading: float = 0.3) -> ngs.Mesh:
     """The domain of Section 5.3: Ω_F the disk of centre (0.2, 0.2), radius 0.05,
     Ω_S = (0, 2.5) × (0, 0.41) minus the disk (Γ_F = ∅). The defaults give the
     coarse mesh of about 128 vertices (136, 12 of them on Γ)."""
-    channel = Rectangle(2.5, 0.41).Face()
-    disk = Circle((0.2, 0.2), 0.05).Face()
+    channel = Rectangle(CHANNEL_WIDTH, CHANNEL_HEIGHT).Face()
+    disk = Circle((DISK_CENTRE, DISK_CENTRE), DISK_RADIUS).Face()
     solid = channel - disk
     solid.faces.name, disk.faces.name = SOLID, FLUID
     solid.edges.name, disk.edges.name = SOLID_WALL, INTERFACE
@@ -397,20 +401,14 @@ KINDS: dict[str, dict[str, Any]] = {
         "description": "the paper's channel (0, 2.5) × (0, 0.41), solid, with a fluid disk of centre "
                        "(0.2, 0.2) and radius 0.05 (Section 5.3); Γ_F = ∅",
     },
-    "fluid_in_solid": {
+    **{kind: {
         "dims": (2, 3),
-        "maxh": DEFAULT_MAXH["fluid_in_solid"],
+        "maxh": DEFAULT_MAXH[kind],
         "parameters": {"size": 1.0, "radius": 0.25, "centre": None, "curvature_safety": 2.0},
-        "description": "a fluid disk/ball (default centre: the middle) inside the solid square/cube "
-                       "(0, size)^dim; Γ_F = ∅",
-    },
-    "solid_in_fluid": {
-        "dims": (2, 3),
-        "maxh": DEFAULT_MAXH["solid_in_fluid"],
-        "parameters": {"size": 1.0, "radius": 0.25, "centre": None, "curvature_safety": 2.0},
-        "description": "a solid disk/ball (default centre: the middle) inside the fluid square/cube "
-                       "(0, size)^dim; Γ_S = ∅",
-    },
+        "description": f"a {inner} disk/ball (default centre: the middle) inside the {outer} square/cube "
+                       f"(0, size)^dim; {empty} = ∅",
+    } for kind, inner, outer, empty in (("fluid_in_solid", "fluid", "solid", "Γ_F"),
+                                        ("solid_in_fluid", "solid", "fluid", "Γ_S"))},
     "fluid_over_solid": {
         "dims": (2, 3),
         "maxh": DEFAULT_MAXH["fluid_over_solid"],

@@ -7,7 +7,7 @@ from importlib import resources
 
 import numpy as np
 
-from .geometry import paper_channel
+from .geometry import CHANNEL_HEIGHT, CHANNEL_WIDTH, DISK_CENTRE, DISK_RADIUS, paper_channel
 from .manufactured import ExactSolution
 from .materials import Materials
 from .study import Case
@@ -59,7 +59,7 @@ def stress_time_floor(dt: float) -> float:
     c = dt * math.exp(dt) / math.expm1(dt) - 1
     t = dt * np.arange(1, round(T_FINAL / dt) + 1)
     # ‖ε(V)‖² = ∫ 8(x² + y²) over the channel minus the disk (centre c0, radius r).
-    width, height, c0, r = 2.5, 0.41, 0.2, 0.05
+    width, height, c0, r = CHANNEL_WIDTH, CHANNEL_HEIGHT, DISK_CENTRE, DISK_RADIUS
     channel = 8 * (width**3 * height / 3 + width * height**3 / 3)
     disk = 8 * (math.pi * r**4 / 2 + 2 * c0**2 * math.pi * r**2)
     return 2 * MATERIALS.mu * c * math.sqrt(channel - disk) * math.sqrt(dt * np.sum(np.expm1(t) ** 2))

@@ -154,11 +154,12 @@ def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Fiel
 
 def build_scheme(case: RunCase):
     from .scheme import BackwardEuler, Data
-    from .spaces import build_spaces
+    from .spaces import base_order, build_spaces
 
     velocity, traction = boundary_conditions(case)
-    if case.discretisation.curved and case.discretisation.family == "taylor_hood":
-        case.mesh.Curve(case.discretisation.order + 1)
+    disc = case.discretisation
+    if disc.curved:
+        case.mesh.Curve(base_order(disc.family, disc.order))
     spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
     zero = [0] * case.dim
     data = Data(

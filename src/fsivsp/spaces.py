@@ -11,6 +11,12 @@ from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, locked_fluid_cells
 FAMILIES = ("mini", "taylor_hood")
 
 
+def base_order(family: str, order: int) -> int:
+    """The polynomial degree of V_h without bubbles: 1 for MINI, k + 1 for Taylor–Hood k
+    (also the order to which curved elements are mapped)."""
+    return 1 if family == "mini" else order + 1
+
+
 @dataclass
 class Spaces:
     """V_h, Q_h, S_h and X_h = V_h × Q_h on one mesh."""
@@ -26,13 +32,13 @@ class Spaces:
     @property
     def velocity_order(self) -> int:
         """The largest polynomial degree in V_h (bubbles included)."""
-        return max(1 if self.family == "mini" else self.order + 1, self.bubble_order)
+        return max(base_order(self.family, self.order), self.bubble_order)
 
     @property
     def bonus_intorder(self) -> int:
         """NGSolve 6.2.2608 integrates a tetrahedron by its face/edge order, not the order of a
         cell-only bubble: without this bonus, ∇ of the quartic bubble is sampled at the centroid."""
-        base = 1 if self.family == "mini" else self.order + 1
+        base = base_order(self.family, self.order)
         return 2 * (self.bubble_order - base) if self.bubble_order and self.mesh.dim == 3 else 0
 
     @property
@@ -53,7 +59,7 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
     (`locked_fluid_cells`) get the bubble of degree d+1 too when P_{k+1} has no interior dof,
     so that the pressure at such a corner is controlled (a local MINI-type enrichment).
     """
-    base = 1 if family == "mini" else order + 1
+    base = base_order(family, order)
     cells = ([el.nr for el in mesh.Elements(ngs.VOL) if el.mat == FLUID] if family == "mini"
              else locked_fluid_cells(mesh, dirichlet))
     space = ngs.VectorH1(mesh, order=base, dirichlet=dirichlet)

@@ -15,7 +15,7 @@ from .manufactured import ExactSolution
 from .materials import Materials
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, whole
 from .scheme import BackwardEuler, Data
-from .spaces import Spaces, build_spaces
+from .spaces import Spaces, base_order, build_spaces
 
 INITIAL_STRESS = ("displacement", "projection")
 
@@ -91,7 +91,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
     """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
     check_regions(mesh)
     if case.curved:
-        mesh.Curve(case.order + 1 if case.family == "taylor_hood" else 1)
+        mesh.Curve(base_order(case.family, case.order))
     start = clock.perf_counter()
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress)
