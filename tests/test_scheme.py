@@ -54,10 +54,16 @@ def test_the_step_matrix_is_factorised_once(spaces, monkeypatch):
     scheme = BackwardEuler(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
     calls = []
     monkeypatch.setattr(ngs.BilinearForm, "Assemble", lambda *a, **k: calls.append("assemble"))
+    monkeypatch.setattr(ngs.LinearForm, "Assemble", lambda *a, **k: calls.append("assemble load"))
     monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
     for _ in range(3):
         scheme.step()
     assert calls == []
+    # the patches are live: the same calls outside the loop are seen
+    forms.step_matrix(spaces, Materials(), 1e-2).Assemble()
+    ngs.LinearForm(spaces.mixed).Assemble()
+    scheme._matrix.Inverse(spaces.mixed.FreeDofs())
+    assert calls == ["assemble", "assemble load", "inverse"]
 
 
 def test_negative_time_step_is_refused(spaces):
