@@ -104,17 +104,17 @@ def wait_for(path_glob, directory: Path, timeout=120):
 
 
 def test_killed_run_resumes_to_identical_results(tmp_path):
-    case = write_case(tmp_path, T=0.004, every=20)
+    case = write_case(tmp_path, T=0.02, every=20)  # 400 steps: the kill lands mid-run
     reference = tmp_path / "reference"
     assert main(["run", str(case), "--out", str(reference), "--quiet"]) == 0
     out = tmp_path / "killed"
     process = cli("run", case, "--out", out, "--quiet")
-    wait_for("checkpoint_000040.npz", out / "checkpoints")
+    wait_for("checkpoint_*.npz", out / "checkpoints")  # any: older ones are pruned as the run goes on
     process.send_signal(signal.SIGKILL)
     process.wait()
     assert main(["run", str(case), "--out", str(out), "--resume", "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["resumed_from"] is not None and summary["resumed_from"] >= 40
+    assert summary["resumed_from"] is not None and 20 <= summary["resumed_from"] < 400
     ours, theirs = final_fields(out), final_fields(reference)
     for name in theirs:
         assert np.array_equal(ours[name], theirs[name]), name
@@ -123,7 +123,7 @@ def test_killed_run_resumes_to_identical_results(tmp_path):
 
 
 def test_ctrl_c_writes_a_checkpoint_and_stops_cleanly(tmp_path):
-    case = write_case(tmp_path, T=0.02, every=1000)
+    case = write_case(tmp_path, T=0.2, every=1000)  # 4000 steps: interrupted long before the end
     out = tmp_path / "out"
     process = cli("run", case, "--out", out, "--quiet")
     wait_for("fields_000010.vtu", out / "vtk")
