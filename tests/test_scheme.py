@@ -5,7 +5,7 @@ import pytest
 
 from fsivsp import forms
 from fsivsp.fields import Field
-from fsivsp.expressions import parse_vector
+from fsivsp.expressions import parse, parse_vector
 from fsivsp.geometry import SOLID
 from fsivsp.materials import Materials
 from fsivsp.scheme import BackwardEuler, Data
@@ -69,3 +69,40 @@ def test_the_step_matrix_is_factorised_once(spaces, monkeypatch):
 def test_negative_time_step_is_refused(spaces):
     with pytest.raises(ValueError, match="dt"):
         BackwardEuler(spaces, Materials(), Data(velocity0=bump()), dt=-1.0)
+
+
+@pytest.mark.parametrize("family, order", [("mini", 1), ("taylor_hood", 1)])
+def test_initial_projection_reproduces_discrete_data(paper_meshes, family, order):
+    """The projections (22)–(23) are Galerkin projections: data already in V_h × Q_h come back
+    unchanged (a linear, divergence-free v⁰ and an affine p⁰, both nonzero on ∂Ω)."""
+    mesh = paper_meshes[0]
+    spaces = build_spaces(mesh, family, order, dirichlet="solid_wall")
+    velocity = Field(parse_vector(["1 + 2*y", "3*x - 1"], "v0", 2))
+    pressure = Field(parse("2 - x + 4*y", "p0", 2))
+    data = Data(velocity0=velocity, pressure0=pressure, initial_velocity="projection",
+                boundary_velocity={"solid_wall": velocity})
+    scheme = BackwardEuler(spaces, Materials(), data, dt=1e-2)
+    v_error = scheme.velocity - velocity.coefficient(0.0)
+    p_error = scheme.pressure - pressure.coefficient(0.0)
+    fluid = mesh.Materials("fluid")
+    assert ngs.Integrate(ngs.InnerProduct(v_error, v_error), mesh) < 1e-24
+    assert ngs.Integrate(ngs.InnerProduct(ngs.Grad(scheme.velocity) - ngs.CF((0, 2, 3, 0), dims=(2, 2)),
+                                          ngs.Grad(scheme.velocity) - ngs.CF((0, 2, 3, 0), dims=(2, 2))), mesh) < 1e-20
+    assert ngs.Integrate(p_error * p_error, mesh, definedon=fluid) < 1e-24
+
+
+def test_initial_projection_is_discretely_divergence_free(spaces):
+    """v⁰_h from (22) satisfies ∫_F q div v⁰_h = 0 for every q ∈ Q_h; the interpolant does not."""
+    velocity = Field(parse_vector(["sin(3*x)*cos(5*y)", "-0.6*cos(3*x)*sin(5*y)"], "v0", 2))  # div v = 0
+    boundary = {"solid_wall": velocity}
+    divergence = {}
+    for how in ("interpolation", "projection"):
+        scheme = BackwardEuler(spaces, Materials(), Data(velocity0=velocity, initial_velocity=how,
+                                                         boundary_velocity=boundary), dt=1e-2)
+        (v, _), (_, q) = spaces.mixed.TnT()
+        form = ngs.BilinearForm(spaces.mixed)
+        form += forms.integral(q * ngs.div(v), spaces, "fluid")
+        residual = form.Assemble().mat * scheme.state.vec
+        divergence[how] = ngs.Norm(residual)
+    assert divergence["projection"] < 1e-12
+    assert divergence["interpolation"] > 1e-6

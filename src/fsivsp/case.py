@@ -19,7 +19,7 @@ SECTIONS = {
     "geometry": None,  # free-form parameters, checked by the geometry builder
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
     "time": {"T", "dt"},
-    "discretisation": {"family", "order", "initial_stress", "solver", "curved"},
+    "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "curved"},
     "exact": {"velocity", "pressure", "displacement"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
@@ -107,6 +107,7 @@ class Discretisation:
     family: str = "mini"
     order: int = 1
     initial_stress: str = "displacement"
+    initial_velocity: str = "interpolation"
     solver: str | None = None
     curved: bool = True
 
@@ -119,6 +120,7 @@ def read_discretisation(table: dict) -> Discretisation:
     if isinstance(order, bool) or not isinstance(order, int) or not low <= order <= high:
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
     initial = choice(table, "initial_stress", "discretisation", ("displacement", "projection"), "displacement")
+    velocity = choice(table, "initial_velocity", "discretisation", ("interpolation", "projection"), "interpolation")
     solver = table.get("solver")
     if solver is not None:
         from .solvers import available_methods
@@ -126,7 +128,7 @@ def read_discretisation(table: dict) -> Discretisation:
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    return Discretisation(family, order, initial, solver, curved)
+    return Discretisation(family, order, initial, velocity, solver, curved)
 
 
 def read_time(table: dict) -> tuple[float, float]:
@@ -204,5 +206,6 @@ def to_study(case: StudyCase):
         coarse_mesh=lambda: coarse,
         materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
+        initial_velocity=disc.initial_velocity,
         project_refinement=disc.curved, solver=disc.solver, curved=disc.curved,
     )

@@ -74,6 +74,8 @@ def build_parser() -> Parser:
                        help="run dt = 1e-1, 1e-2, 1e-3, 1e-4 (Tables 1–8) and write a Markdown report with a plot")
     paper.add_argument("--initial-stress", choices=("displacement", "projection"), default="displacement",
                        help="σ⁰ from the interpolated displacement (the paper's, default) or the L² projection (26)")
+    paper.add_argument("--initial-velocity", choices=("interpolation", "projection"), default="interpolation",
+                       help="v⁰ by nodal interpolation (the paper's, default) or the projections (22)–(23)")
     paper.add_argument("--project", action="store_true",
                        help="move new interface nodes onto the circle when refining (default: plain bisection, "
                        "which matches the paper's pressure errors)")
@@ -118,7 +120,8 @@ def build_parser() -> Parser:
 
 
 def paper_options(args) -> dict:
-    return {"initial_stress": args.initial_stress, "project_refinement": args.project, "solver": args.solver}
+    return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
+            "project_refinement": args.project, "solver": args.solver}
 
 
 def paper_job(job: tuple[float, int, dict]) -> dict:

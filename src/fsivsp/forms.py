@@ -14,15 +14,16 @@ from .materials import Materials
 from .spaces import Spaces
 
 
-def integral(integrand, spaces: Spaces, region: str | None = None):
+def integral(integrand, spaces: Spaces, region: str | None = None, extra: int = 0):
     """∫_region integrand (Ω if None), with the extra quadrature order that fluid cells with
-    bubbles need (`Spaces.bonus_intorder`)."""
-    fluid = integrand * ngs.dx(FLUID, bonus_intorder=spaces.bonus_intorder)
+    bubbles need (`Spaces.bonus_intorder`), plus ``extra`` everywhere (for data that are not
+    polynomials)."""
+    fluid = integrand * ngs.dx(FLUID, bonus_intorder=spaces.bonus_intorder + extra)
     if region == FLUID:
         return fluid
     if region == SOLID:
-        return integrand * ngs.dx(SOLID)
-    return fluid + integrand * ngs.dx(SOLID)
+        return integrand * ngs.dx(SOLID, bonus_intorder=extra)
+    return fluid + integrand * ngs.dx(SOLID, bonus_intorder=extra)
 
 
 def eps(v):
@@ -69,6 +70,26 @@ def stress_divergence(spaces: Spaces) -> ngs.BilinearForm:
     a = ngs.BilinearForm(trialspace=spaces.stress, testspace=spaces.mixed)
     a += integral(InnerProduct(sigma, eps(w)), spaces, SOLID)
     return a
+
+
+def initial_projection(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
+    """The Stokes projection (22) on Ω_F and the H¹ projection (23) on Ω_S, glued into one
+    Galerkin problem on X_h: 2ν ∫_F ε(v):ε(w) + ∫_S ∇v:∇w − ∫_F p div w − ∫_F q div v."""
+    (v, p), (w, q) = spaces.mixed.TnT()
+    a = ngs.BilinearForm(spaces.mixed)
+    a += integral(2 * mat.nu * InnerProduct(eps(v), eps(w)) - p * div(w) - q * div(v), spaces, FLUID)
+    a += integral(InnerProduct(ngs.Grad(v), ngs.Grad(w)), spaces, SOLID)
+    return a
+
+
+def initial_projection_load(spaces: Spaces, mat: Materials, grad_v0, p0) -> ngs.LinearForm:
+    """`initial_projection` applied to the exact (v⁰, p⁰), given ∇v⁰ and p⁰ as CoefficientFunctions."""
+    w, q = spaces.mixed.TestFunction()
+    strain = 0.5 * (grad_v0 + grad_v0.trans)
+    f = ngs.LinearForm(spaces.mixed)
+    f += integral(2 * mat.nu * InnerProduct(strain, eps(w)) - p0 * div(w) - q * Trace(grad_v0), spaces, FLUID, extra=2)
+    f += integral(InnerProduct(grad_v0, ngs.Grad(w)), spaces, SOLID, extra=2)
+    return f
 
 
 def stress_rate(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:

@@ -22,7 +22,7 @@ T_FINAL = 1.0
 
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
-               solver: str | None = None) -> Case:
+               solver: str | None = None, initial_velocity: str = "interpolation") -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt``."""
     return Case(
         name=f"paper dt={dt:g}",
@@ -32,6 +32,7 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         T=T_FINAL,
         dt=dt,
         initial_stress=initial_stress,
+        initial_velocity=initial_velocity,
         project_refinement=project_refinement,
         solver=solver,
     )

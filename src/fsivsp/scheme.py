@@ -13,10 +13,12 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
+import sympy
 import ngsolve as ngs
 from ngsolve import InnerProduct, dx, ds
 
 from . import forms
+from .expressions import SPACE
 from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .materials import Materials
@@ -33,10 +35,14 @@ class Data:
     traction J n (n from Ω_F into Ω_S) loads Γ as ∫_Γ J n·w (for a manufactured
     solution J = σ_F − σ_S, see `manufactured`). The initial stress is built from
     ``displacement0`` (σ⁰ = λ div(I_h u⁰) I + 2μ ε(I_h u⁰), the paper's experiment) or,
-    if given, is the L² projection (26) of ``stress0``.
+    if given, is the L² projection (26) of ``stress0``. The initial velocity is the nodal
+    interpolant of ``velocity0`` (``initial_velocity = "interpolation"``, the paper's experiment)
+    or its projection (22)–(23) together with ``pressure0`` (``"projection"``, the analysis' choice).
     """
 
     velocity0: Field
+    pressure0: Field | None = None
+    initial_velocity: str = "interpolation"
     displacement0: Field | None = None
     stress0: Field | None = None
     force_fluid: Field | None = None
@@ -203,10 +209,14 @@ class BackwardEuler:
 
     # -- state ------------------------------------------------------------------------
     def initialise(self) -> None:
-        """v⁰_h = I_h v⁰ and σ⁰_h from the interpolated displacement or by L² projection (26)."""
+        """v⁰_h = I_h v⁰ or by the projections (22)–(23), σ⁰_h from the interpolated displacement or
+        by the L² projection (26)."""
         d, S = self.data, self.spaces.stress
         self.state.vec[:] = 0.0
-        self.velocity.vec.data = interpolate(self.spaces, d.velocity0.coefficient(0.0)).vec
+        if d.initial_velocity == "projection":
+            self.state.vec.data = self._projected_state()
+        else:
+            self.velocity.vec.data = interpolate(self.spaces, d.velocity0.coefficient(0.0)).vec
         self.stress.vec[:] = 0.0
         u0 = None
         if d.displacement0 is not None:
@@ -226,6 +236,23 @@ class BackwardEuler:
             if u0 is not None:
                 self.displacement.vec.data = u0.vec
         self.time, self.n = 0.0, 0
+
+    def _projected_state(self) -> ngs.BaseVector:
+        """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),
+        with v⁰ as Dirichlet values on ∂Ω; p⁰ = 0 if not given."""
+        d, spaces, dim = self.data, self.spaces, self.spaces.mesh.dim
+        grad = sympy.Matrix([[sympy.diff(c, s) for s in SPACE[:dim]] for c in d.velocity0.components()])
+        pressure = d.pressure0.coefficient(0.0) if d.pressure0 is not None else ngs.CoefficientFunction(0.0)
+        matrix = forms.initial_projection(spaces, self.materials).Assemble().mat
+        load = forms.initial_projection_load(spaces, self.materials, Field(grad).coefficient(0.0), pressure)
+        rhs = load.Assemble().vec
+        state = self.state.vec.CreateVector()
+        state[:] = 0.0
+        for values in self._dirichlet:
+            values.add_to(state, 0.0)
+        rhs.data -= matrix * state
+        state.data += factorise(matrix, spaces.mixed.FreeDofs()).inverse * rhs
+        return state
 
     def step(self) -> None:
         """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then

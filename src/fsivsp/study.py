@@ -18,6 +18,7 @@ from .scheme import BackwardEuler, Data
 from .spaces import Spaces, base_order, build_spaces
 
 INITIAL_STRESS = ("displacement", "projection")
+INITIAL_VELOCITY = ("interpolation", "projection")
 
 
 @dataclass
@@ -33,6 +34,7 @@ class Case:
     family: str = "mini"
     order: int = 1
     initial_stress: str = "displacement"
+    initial_velocity: str = "interpolation"
     project_refinement: bool = True
     solver: str | None = None
     curved: bool = False
@@ -48,12 +50,17 @@ def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
     return "|".join(name for name in (FLUID_WALL, SOLID_WALL) if name in present)
 
 
-def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, initial_stress: str) -> Data:
+def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, initial_stress: str,
+                      initial_velocity: str = "interpolation") -> Data:
     """All data of the model derived from the exact solution (see `manufactured`)."""
     if initial_stress not in INITIAL_STRESS:
         raise ValueError(f"initial_stress: expected one of {', '.join(INITIAL_STRESS)}, got {initial_stress!r}")
+    if initial_velocity not in INITIAL_VELOCITY:
+        raise ValueError(f"initial_velocity: expected one of {', '.join(INITIAL_VELOCITY)}, got {initial_velocity!r}")
     return Data(
         velocity0=Field(exact.at_time(0).velocity),
+        pressure0=Field(exact.at_time(0).pressure),
+        initial_velocity=initial_velocity,
         displacement0=Field(exact.at_time(0).displacement) if initial_stress == "displacement" else None,
         stress0=Field(exact.at_time(0).solid_stress(mat)) if initial_stress == "projection" else None,
         force_fluid=Field(exact.fluid_force(mat)),
@@ -94,7 +101,8 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
         mesh.Curve(base_order(case.family, case.order))
     start = clock.perf_counter()
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
-    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress)
+    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
+                             case.initial_velocity)
     scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver)
     errors_at = Errors(spaces, case.exact, case.materials)
     setup = clock.perf_counter() - start
