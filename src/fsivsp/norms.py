@@ -20,6 +20,7 @@ import ngsolve as ngs
 import sympy
 
 from .geometry import FLUID, SOLID
+from .solvers import compact
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
 # A norm is a sum of parts ∫_region op(u)·op(u): (region or None for Ω, op on discrete functions, op on exact fields).
@@ -80,7 +81,7 @@ def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], 
         u, w = (select(f) for f in space.TnT())
         for region, op, _ in parts:
             gram += _integral(ngs.InnerProduct(op(u), op(w)), region, bonus)
-    return gram.Assemble().mat
+    return compact(gram.Assemble().mat)
 
 
 class ErrorNorm:
@@ -107,7 +108,9 @@ class ErrorNorm:
             return
         self._terms = [(to_function(tk), _shaped(exact, sk)) for tk, sk in terms]
         used = self._used_dofs()
-        self.mask = np.array([used[i] for i in range(len(used))], dtype=bool)
+        dofs = np.flatnonzero([used[i] for i in range(len(used))])
+        contiguous = len(dofs) and dofs[-1] - dofs[0] + 1 == len(dofs)
+        self.dofs = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else dofs  # a view where possible
         inverse = self._gram.Inverse(used, inverse="sparsecholesky")
         self._projections = []
         for _, spatial in self._terms:
@@ -197,5 +200,5 @@ class NormGroup:
         d, w = self._diff.FV().NumPy(), self._work.FV().NumPy()
         for name, norm in self.norms.items():
             if norm.separable:
-                squares[name] += float(d[norm.mask] @ w[norm.mask])
+                squares[name] += float(d[norm.dofs] @ w[norm.dofs])
         return {name: float(np.sqrt(max(value, 0.0))) for name, value in squares.items()}

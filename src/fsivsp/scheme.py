@@ -22,7 +22,7 @@ from .expressions import SPACE
 from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .materials import Materials
-from .solvers import factorise
+from .solvers import compact, factorise, to_ngsolve, to_scipy_csr
 from .spaces import Spaces
 
 
@@ -68,24 +68,13 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
     return gf
 
 
-def to_scipy(matrix: ngs.BaseMatrix) -> sp.csr_matrix:
-    values, cols, rows = matrix.CSR()
-    return sp.csr_matrix((np.array(values), np.array(cols), np.array(rows)), shape=(matrix.height, matrix.width))
-
-
-def to_ngsolve(matrix: sp.spmatrix) -> ngs.BaseMatrix:
-    coo = matrix.tocoo()
-    return ngs.la.SparseMatrixd.CreateFromCOO(coo.row.tolist(), coo.col.tolist(), coo.data.tolist(),
-                                               matrix.shape[0], matrix.shape[1])
-
-
 def block_inverse(mass: ngs.BaseMatrix, space: ngs.FESpace) -> ngs.BaseMatrix:
     """The inverse of the mass matrix of a discontinuous space, one dense block per cell."""
     cells = np.array([el.dofs for el in space.Elements(ngs.VOL) if len(el.dofs) and min(el.dofs) >= 0])
     n, size = cells.shape
     rows = np.repeat(cells, size, axis=1).reshape(n, size, size)
     cols = np.tile(cells, size).reshape(n, size, size)
-    blocks = np.linalg.inv(np.asarray(to_scipy(mass)[rows.ravel(), cols.ravel()]).reshape(n, size, size))
+    blocks = np.linalg.inv(np.asarray(to_scipy_csr(mass)[rows.ravel(), cols.ravel()]).reshape(n, size, size))
     return to_ngsolve(sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(mass.height, mass.width)))
 
 
@@ -102,11 +91,13 @@ class BackwardEuler:
         step = forms.step_matrix(spaces, materials, dt).Assemble()
         self._matrix = step.mat
         self.solver = factorise(step.mat, X.FreeDofs(), method=solver)
-        self._mass = forms.velocity_mass(spaces, materials).Assemble().mat
-        self._divergence = forms.stress_divergence(spaces).Assemble().mat
+        self._mass = compact(forms.velocity_mass(spaces, materials).Assemble().mat)
+        self._divergence = compact(forms.stress_divergence(spaces).Assemble().mat)
         rate = forms.stress_rate(spaces, materials).Assemble().mat
         self._stress_inverse = block_inverse(forms.stress_mass(spaces).Assemble().mat, S)
-        self._stress_update = to_ngsolve(to_scipy(self._stress_inverse) @ to_scipy(rate))  # M_σ⁻¹C
+        update = to_scipy_csr(self._stress_inverse) @ to_scipy_csr(rate)  # M_σ⁻¹C
+        update.eliminate_zeros()
+        self._stress_update = to_ngsolve(update)
         self._compliance = self._compliance_matrix()
 
         self._loads = self._load_vectors()
@@ -205,7 +196,7 @@ class BackwardEuler:
         a = ngs.BilinearForm(S)
         a += (InnerProduct(sigma, tau) - mat.lam / (dim * mat.lam + 2 * mat.mu) * ngs.Trace(sigma) * ngs.Trace(tau)) \
             / (2 * mat.mu) * dx(SOLID)
-        return a.Assemble().mat
+        return compact(a.Assemble().mat)
 
     # -- state ------------------------------------------------------------------------
     def initialise(self) -> None:

@@ -48,6 +48,8 @@ __all__ = [
     "free_mask",
     "is_symmetric",
     "to_scipy_csr",
+    "to_ngsolve",
+    "compact",
 ]
 
 #: All methods :class:`DirectSolver` knows (:func:`default_method` picks the first
@@ -97,6 +99,22 @@ def _raw_csr(matrix):
         (np.array(vals, dtype=float), np.array(cols), np.array(rowptr)),
         shape=(matrix.height, matrix.width),
     )
+
+
+def to_ngsolve(matrix) -> ngs.BaseMatrix:
+    """A scipy sparse matrix as an NGSolve sparse matrix (general storage)."""
+    coo = matrix.tocoo()
+    return ngs.la.SparseMatrixd.CreateFromCOO(coo.row.tolist(), coo.col.tolist(), coo.data.tolist(),
+                                               matrix.shape[0], matrix.shape[1])
+
+
+def compact(matrix) -> ngs.BaseMatrix:
+    """The same operator without stored zeros. A form on a product space stores every pair of
+    dofs of an element, so e.g. the velocity mass on V_h × Q_h keeps 2.4× its nonzeros (no
+    coupling between components or with the pressure); a product costs its stored entries."""
+    reduced = to_scipy_csr(matrix)
+    reduced.eliminate_zeros()
+    return to_ngsolve(reduced)
 
 
 def _stores_lower_triangle(matrix) -> bool:
