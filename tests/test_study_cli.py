@@ -38,6 +38,7 @@ def edited(tmp_path, old, new):
     ("dt = 0.02", 'dt = "small"', "time.dt"),
     ('family = "taylor_hood"', 'family = "crouzeix"', "discretisation.family"),
     ("order = 1", "order = 7", "discretisation.order"),
+    ("order = 1", 'order = 1\ninitial_velocity = "stokes"', "discretisation.initial_velocity"),
     ('kind = "fluid_over_solid"', 'kind = "blob"', "geometry.kind"),
     ("dim = 2", "dim = 4", "geometry.dim"),
     ("maxh = 0.15", "maxh = -0.1", "geometry.maxh"),
