@@ -34,6 +34,11 @@ def divergence(vector: list[sympy.Expr], dim: int) -> sympy.Expr:
     return sum(sympy.diff(vector[i], SPACE[i]) for i in range(dim))
 
 
+def elastic_stress(u: list[sympy.Expr], mat: Materials, dim: int) -> sympy.Matrix:
+    """σ_S = λ div(u) I + 2μ ε(u) of a displacement field."""
+    return (mat.lam * divergence(u, dim) * sympy.eye(dim) + 2 * mat.mu * sym_grad(u, dim)).applyfunc(sympy.expand)
+
+
 def div_rows(tensor: sympy.Matrix, dim: int) -> list[sympy.Expr]:
     """(div σ)_i = Σ_j ∂_j σ_ij."""
     return [sympy.expand(sum(sympy.diff(tensor[i, j], SPACE[j]) for j in range(dim))) for i in range(dim)]
@@ -75,9 +80,7 @@ class ExactSolution:
 
     def solid_stress(self, mat: Materials) -> sympy.Matrix:
         """σ_S = λ div(u) I + 2μ ε(u)."""
-        u = self.displacement
-        return (mat.lam * divergence(u, self.dim) * sympy.eye(self.dim)
-                + 2 * mat.mu * sym_grad(u, self.dim)).applyfunc(sympy.expand)
+        return elastic_stress(self.displacement, mat, self.dim)
 
     def _force(self, rho: float, stress: sympy.Matrix) -> list[sympy.Expr]:
         dv = [sympy.diff(v_i, T) for v_i in self.velocity]

@@ -2,7 +2,8 @@
 plots and a JSON summary, with atomic checkpoints and resume.
 
 Case file sections (all validated before any heavy work, see `load_run_case`):
-``[geometry]``, ``[materials]`` (lam/mu or young/poisson), ``[time]``, ``[discretisation]``,
+``[geometry]``, ``[materials]`` (lam/mu or young/poisson), ``[time]``, ``[discretisation]``
+(family, order, solver, curved, initial_stress, initial_velocity),
 ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
 ``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
 velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
@@ -153,6 +154,7 @@ def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Fiel
 
 
 def build_scheme(case: RunCase):
+    from .manufactured import elastic_stress
     from .scheme import BackwardEuler, Data
     from .spaces import base_order, build_spaces
 
@@ -162,9 +164,13 @@ def build_scheme(case: RunCase):
         case.mesh.Curve(base_order(disc.family, disc.order))
     spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
     zero = [0] * case.dim
+    displacement0 = case.data.get("displacement0", zero)
     data = Data(
         velocity0=Field(case.data.get("velocity0", zero)),
-        displacement0=Field(case.data.get("displacement0", zero)),
+        initial_velocity=disc.initial_velocity,
+        displacement0=Field(displacement0),
+        stress0=(Field(elastic_stress(displacement0, case.materials, case.dim))
+                 if disc.initial_stress == "projection" else None),
         force_fluid=Field(case.data["force_fluid"]) if "force_fluid" in case.data else None,
         force_solid=Field(case.data["force_solid"]) if "force_solid" in case.data else None,
         boundary_velocity=velocity,
