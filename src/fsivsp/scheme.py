@@ -13,14 +13,13 @@ from typing import Callable
 
 import numpy as np
 import scipy.sparse as sp
-import sympy
 import ngsolve as ngs
 from ngsolve import InnerProduct, dx, ds
 
 from . import forms
-from .expressions import SPACE
 from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
+from .manufactured import grad
 from .materials import Materials
 from .solvers import compact, factorise, to_ngsolve, to_scipy_csr
 from .spaces import Spaces
@@ -50,6 +49,10 @@ class Data:
     boundary_velocity: dict[str, Field] = field(default_factory=dict)
     boundary_traction: dict[str, Field] = field(default_factory=dict)
     interface_load: Field | None = None
+
+    def __post_init__(self):
+        if self.initial_velocity not in ("interpolation", "projection"):
+            raise ValueError(f"initial_velocity: expected interpolation or projection, got {self.initial_velocity!r}")
 
 
 def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
@@ -232,10 +235,10 @@ class BackwardEuler:
         """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),
         with v⁰ as Dirichlet values on ∂Ω; p⁰ = 0 if not given."""
         d, spaces, dim = self.data, self.spaces, self.spaces.mesh.dim
-        grad = sympy.Matrix([[sympy.diff(c, s) for s in SPACE[:dim]] for c in d.velocity0.components()])
+        gradient = grad(d.velocity0.components(), dim)
         pressure = d.pressure0.coefficient(0.0) if d.pressure0 is not None else ngs.CoefficientFunction(0.0)
         matrix = forms.initial_projection(spaces, self.materials).Assemble().mat
-        load = forms.initial_projection_load(spaces, self.materials, Field(grad).coefficient(0.0), pressure)
+        load = forms.initial_projection_load(spaces, self.materials, Field(gradient).coefficient(0.0), pressure)
         rhs = load.Assemble().vec
         state = self.state.vec.CreateVector()
         state[:] = 0.0
