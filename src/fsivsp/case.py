@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .materials import Materials
+from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .spaces import FAMILIES
 
 SECTIONS = {
@@ -119,8 +120,8 @@ def read_discretisation(table: dict) -> Discretisation:
     order = table.get("order", low)
     if isinstance(order, bool) or not isinstance(order, int) or not low <= order <= high:
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
-    initial = choice(table, "initial_stress", "discretisation", ("displacement", "projection"), "displacement")
-    velocity = choice(table, "initial_velocity", "discretisation", ("interpolation", "projection"), "interpolation")
+    initial = choice(table, "initial_stress", "discretisation", INITIAL_STRESS, INITIAL_STRESS[0])
+    velocity = choice(table, "initial_velocity", "discretisation", INITIAL_VELOCITY, INITIAL_VELOCITY[0])
     solver = table.get("solver")
     if solver is not None:
         from .solvers import available_methods

@@ -11,6 +11,7 @@ from pathlib import Path
 from . import __version__
 from .case import CaseError
 from .geometry import GeometryError
+from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 
 MAX_LEVEL = 6
 
@@ -72,9 +73,9 @@ def build_parser() -> Parser:
                        help="refinement levels, 'A-B' or 'A' (default 0-4)")
     paper.add_argument("--all", action="store_true",
                        help="run dt = 1e-1, 1e-2, 1e-3, 1e-4 (Tables 1–8) and write a Markdown report with a plot")
-    paper.add_argument("--initial-stress", choices=("displacement", "projection"), default="displacement",
+    paper.add_argument("--initial-stress", choices=INITIAL_STRESS, default=INITIAL_STRESS[0],
                        help="σ⁰ from the interpolated displacement (the paper's, default) or the L² projection (26)")
-    paper.add_argument("--initial-velocity", choices=("interpolation", "projection"), default="interpolation",
+    paper.add_argument("--initial-velocity", choices=INITIAL_VELOCITY, default=INITIAL_VELOCITY[0],
                        help="v⁰ by nodal interpolation (the paper's, default) or the projections (22)–(23)")
     paper.add_argument("--project", action="store_true",
                        help="move new interface nodes onto the circle when refining (default: plain bisection, "

@@ -11,6 +11,7 @@ by walking the sympy tree.
 from __future__ import annotations
 
 import math
+import operator
 import re
 from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -561,9 +562,9 @@ def _compile(expr: sympy.Expr, var: sympy.Symbol) -> _Compiled:
             raise ValueError(f"{expr} is not finite")
         return _number(expr)
     if isinstance(expr, sympy.Add):
-        return _compile_add([_compile(a, var) for a in expr.args])
+        return _compile_fold([_compile(a, var) for a in expr.args], 0.0, operator.add)
     if isinstance(expr, sympy.Mul):
-        return _compile_mul([_compile(a, var) for a in expr.args])
+        return _compile_fold([_compile(a, var) for a in expr.args], 1.0, operator.mul)
     if isinstance(expr, sympy.Pow):
         return _compile_pow(expr, var)
     func = _MATH.get(expr.func)
@@ -579,69 +580,29 @@ def _identity(v: float) -> float:
     return v
 
 
-def _compile_add(parts: list[_Compiled]) -> _Compiled:
-    c = 0.0
-    fns: list[Callable[[float], float]] = []
-    for p in parts:
-        if callable(p):
-            fns.append(p)
+def _compile_fold(parts: list[_Compiled], unit: float, combine: Callable[[float, float], float]) -> _Compiled:
+    """The sum (``operator.add``, unit 0) or product (``operator.mul``, unit 1) of compiled parts:
+    constant parts folded once, the others evaluated in turn."""
+    constant = unit
+    functions: list[Callable[[float], float]] = []
+    for part in parts:
+        if callable(part):
+            functions.append(part)
         else:
-            c += p
-    if not fns:
-        return c
-    if len(fns) == 1:
-        f0 = fns[0]
-        return f0 if c == 0.0 else (lambda v: f0(v) + c)
-    if len(fns) == 2:
-        f0, f1 = fns
-        return (lambda v: f0(v) + f1(v)) if c == 0.0 else (lambda v: f0(v) + f1(v) + c)
-    if len(fns) == 3:
-        f0, f1, f2 = fns
+            constant = combine(constant, part)
+    if not functions:
+        return constant
+    if len(functions) == 1 and constant == unit:
+        return functions[0]
+    functions_t = tuple(functions)
 
-        def add3(v: float) -> float:
-            return f0(v) + f1(v) + f2(v) + c
+    def folded(v: float) -> float:
+        value = constant
+        for f in functions_t:
+            value = combine(value, f(v))
+        return value
 
-        return add3
-    fns_t = tuple(fns)
-
-    def add_n(v: float) -> float:
-        s = c
-        for f in fns_t:
-            s += f(v)
-        return s
-
-    return add_n
-
-
-def _compile_mul(parts: list[_Compiled]) -> _Compiled:
-    c = 1.0
-    fns: list[Callable[[float], float]] = []
-    for p in parts:
-        if callable(p):
-            fns.append(p)
-        else:
-            c *= p
-    if not fns:
-        return c
-    if len(fns) == 1:
-        f0 = fns[0]
-        if c == 1.0:
-            return f0
-        if c == -1.0:
-            return lambda v: -f0(v)
-        return lambda v: c * f0(v)
-    if len(fns) == 2:
-        f0, f1 = fns
-        return (lambda v: f0(v) * f1(v)) if c == 1.0 else (lambda v: c * f0(v) * f1(v))
-    fns_t = tuple(fns)
-
-    def mul_n(v: float) -> float:
-        p = c
-        for f in fns_t:
-            p *= f(v)
-        return p
-
-    return mul_n
+    return folded
 
 
 def _compile_pow(expr: sympy.Pow, var: sympy.Symbol) -> _Compiled:

@@ -14,16 +14,26 @@ from .materials import Materials
 from .spaces import Spaces
 
 
+#: Extra quadrature order for integrands with data (loads, projections of exact fields, the Gram
+#: matrices they are measured with), which are not polynomials.
+DATA_BONUS = 2
+
+
+def region_integral(integrand, region: str | None = None, fluid_bonus: int = 0, extra: int = 0):
+    """∫_region integrand (Ω if None) with ``extra`` quadrature orders everywhere and ``fluid_bonus``
+    more on the fluid cells."""
+    fluid = integrand * ngs.dx(FLUID, bonus_intorder=fluid_bonus + extra)
+    if region == FLUID:
+        return fluid
+    solid = integrand * ngs.dx(SOLID, bonus_intorder=extra)
+    return solid if region == SOLID else fluid + solid
+
+
 def integral(integrand, spaces: Spaces, region: str | None = None, extra: int = 0):
     """∫_region integrand (Ω if None), with the extra quadrature order that fluid cells with
     bubbles need (`Spaces.bonus_intorder`), plus ``extra`` everywhere (for data that are not
     polynomials)."""
-    fluid = integrand * ngs.dx(FLUID, bonus_intorder=spaces.bonus_intorder + extra)
-    if region == FLUID:
-        return fluid
-    if region == SOLID:
-        return integrand * ngs.dx(SOLID, bonus_intorder=extra)
-    return fluid + integrand * ngs.dx(SOLID, bonus_intorder=extra)
+    return region_integral(integrand, region, spaces.bonus_intorder, extra)
 
 
 def eps(v):
@@ -88,8 +98,8 @@ def initial_projection_load(spaces: Spaces, mat: Materials, grad_v0, p0) -> ngs.
     w, _ = spaces.mixed.TestFunction()
     strain = 0.5 * (grad_v0 + grad_v0.trans)
     f = ngs.LinearForm(spaces.mixed)
-    f += integral(2 * mat.nu * InnerProduct(strain, eps(w)) - p0 * div(w), spaces, FLUID, extra=2)
-    f += integral(InnerProduct(grad_v0, ngs.Grad(w)), spaces, SOLID, extra=2)
+    f += integral(2 * mat.nu * InnerProduct(strain, eps(w)) - p0 * div(w), spaces, FLUID, extra=DATA_BONUS)
+    f += integral(InnerProduct(grad_v0, ngs.Grad(w)), spaces, SOLID, extra=DATA_BONUS)
     return f
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import ngsolve as ngs
 import sympy
 
-from .geometry import FLUID, SOLID
+from .forms import DATA_BONUS, region_integral
 from .solvers import compact
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
@@ -58,20 +58,13 @@ def _shaped(expr, comps):
     return sympy.Matrix(expr.rows, expr.cols, comps) if isinstance(expr, sympy.MatrixBase) else comps[0]
 
 
-#: Extra quadrature order of the Gram matrices and of the projections of the exact fields. Both
-#: must use the same rule, or a field that lies in the discrete space is not projected onto
-#: itself (on curved cells the integrands are rational, and the error norm got a floor of 5e-8).
-DATA_BONUS = 2
-
-
 def _integral(integrand, region, bonus: int):
     """∫_region integrand (Ω if None) with ``DATA_BONUS`` extra quadrature order everywhere and
-    ``bonus`` more on the fluid cells (where bubbles live, see `Spaces.bonus_intorder`)."""
-    solid = integrand * ngs.dx(SOLID, bonus_intorder=DATA_BONUS)
-    if region == SOLID:
-        return solid
-    fluid = integrand * ngs.dx(FLUID, bonus_intorder=bonus + DATA_BONUS)
-    return fluid if region == FLUID else fluid + solid
+    ``bonus`` more on the fluid cells (where bubbles live, see `Spaces.bonus_intorder`). The Gram
+    matrices and the projections of the exact fields both use it: with different rules a field that
+    lies in the discrete space is not projected onto itself (on curved cells the integrands are
+    rational, and the error norm had a floor of 5e-8)."""
+    return region_integral(integrand, region, bonus, DATA_BONUS)
 
 
 def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], bonus: int = 0) -> ngs.BaseMatrix:

@@ -25,6 +25,11 @@ from .solvers import compact, factorise, to_ngsolve, to_scipy_csr
 from .spaces import Spaces
 
 
+#: How σ⁰_h and v⁰_h are built (see `Data`): the paper's experiment first, then the analysis' projections.
+INITIAL_STRESS = ("displacement", "projection")
+INITIAL_VELOCITY = ("interpolation", "projection")
+
+
 @dataclass
 class Data:
     """Data of the model (1)–(3) as fields of x, y, z, t.
@@ -51,8 +56,9 @@ class Data:
     interface_load: Field | None = None
 
     def __post_init__(self):
-        if self.initial_velocity not in ("interpolation", "projection"):
-            raise ValueError(f"initial_velocity: expected interpolation or projection, got {self.initial_velocity!r}")
+        if self.initial_velocity not in INITIAL_VELOCITY:
+            raise ValueError(f"initial_velocity: expected one of {', '.join(INITIAL_VELOCITY)}, "
+                             f"got {self.initial_velocity!r}")
 
 
 def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
@@ -130,7 +136,7 @@ class BackwardEuler:
     def _load_vectors(self) -> list[TimeVector]:
         """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, each a `TimeVector`."""
         d, mesh = self.data, self.spaces.mesh
-        order = 2  # data are not polynomials: two orders above NGSolve's default
+        order = forms.DATA_BONUS
         dot = lambda cf, w: InnerProduct(cf, w)
         loads = []
         if d.force_fluid is not None:

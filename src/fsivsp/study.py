@@ -14,10 +14,9 @@ from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, refin
 from .manufactured import ExactSolution
 from .materials import Materials
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, whole
-from .scheme import BackwardEuler, Data
+from .scheme import INITIAL_STRESS, BackwardEuler, Data
 from .spaces import Spaces, base_order, build_spaces
 
-INITIAL_STRESS = ("displacement", "projection")
 
 
 @dataclass
