@@ -48,8 +48,8 @@ class Entry:
 def _entries() -> list[Entry]:
     table = []
     for configuration in CONFIGURATIONS:
-        # MINI in the enclosed fluid ball: the pressure is pre-asymptotic until level 3 (per-pair rates
-        # 1.87, 1.00, 0.79 on 0→1→2→3); levels 2–4 (120 721 vertices) take 12 minutes.
+        # MINI in the enclosed fluid ball: the pressure's per-pair rates are 1.87, 1.00, 0.79, 0.94 on levels
+        # 0→1→2→3→4, so the entry runs on the finest affordable levels, 2–4 (120 721 vertices, 20 minutes).
         mini_fluid_ball = configuration == "fluid_in_solid"
         table += [Entry("mini", 1, 2, configuration), Entry("taylor_hood", 1, 2, configuration),
                   Entry("taylor_hood", 2, 2, configuration), Entry("taylor_hood", 3, 2, configuration, slow=True),
@@ -67,7 +67,9 @@ TABLE = _entries()
 
 #: Entries measured below their expected rate (make test-all, this machine), kept as strict xfails:
 #: if one starts passing, the test suite says so.
-SHORT_OF_EXPECTED: dict[str, str] = {}
+SHORT_OF_EXPECTED = {
+    "MINI-3d-fluid_in_solid": "levels 2-4: p 0.86 (per pair 0.79, 0.94), v 1.02-1.03, sigma 1.03",
+}
 
 
 def fitted_rates(records: list[dict], dim: int) -> dict[str, float]:
