@@ -54,7 +54,7 @@ def paper_channel(maxh: float = 0.15, grading: float = 0.3) -> ngs.Mesh:
 
 
 def without_geometry(mesh: ngs.Mesh) -> ngs.Mesh:
-    """A copy of a 2D mesh that has forgotten its geometry, so that refinement puts the new
+    """A copy of a 2D or 3D mesh that has forgotten its geometry, so that refinement puts the new
     nodes at the edge midpoints instead of projecting them onto curved boundaries."""
     old = mesh.ngmesh
     if old.dim == 3:
