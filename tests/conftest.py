@@ -1,6 +1,8 @@
+import ngsolve as ngs
 import pytest
 
-from fsivsp.geometry import paper_channel, refined
+from fsivsp import forms
+from fsivsp.geometry import FLUID, paper_channel, refined
 
 
 @pytest.fixture(scope="session")
@@ -8,3 +10,16 @@ def paper_meshes():
     """The paper's coarse mesh and its first two refinements (with projection)."""
     coarse = paper_channel()
     return [refined(coarse, level) for level in range(3)]
+
+
+def _discrete_divergence(scheme) -> float:
+    (v, _), (_, q) = scheme.spaces.mixed.TnT()
+    form = ngs.BilinearForm(scheme.spaces.mixed)
+    form += forms.integral(q * ngs.div(v), scheme.spaces, FLUID)
+    return ngs.Norm(form.Assemble().mat * scheme.state.vec)
+
+
+@pytest.fixture
+def discrete_divergence():
+    """The norm of (∫_F q_i div v_h)_i for the scheme's current velocity (zero if discretely divergence-free)."""
+    return _discrete_divergence

@@ -18,7 +18,6 @@ from .scheme import INITIAL_STRESS, BackwardEuler, Data
 from .spaces import Spaces, base_order, build_spaces
 
 
-
 @dataclass
 class Case:
     """A manufactured-solution problem: geometry, materials, exact solution, discretisation."""
