@@ -1,15 +1,20 @@
 """Properties of the scheme (5.1) beyond the paper's tables: energy, displacement recovery (5),
 one factorisation per run."""
+import threading
+
 import ngsolve as ngs
+import numpy as np
 import pytest
 
-from fsivsp import forms
+from fsivsp import forms, scheme as scheme_module
 from fsivsp.fields import Field
 from fsivsp.expressions import parse, parse_vector
 from fsivsp.geometry import SOLID
 from fsivsp.materials import Materials
+from fsivsp.paper import paper_case
 from fsivsp.scheme import BackwardEuler, Data
 from fsivsp.spaces import build_spaces
+from fsivsp.study import Errors, dirichlet_boundaries, manufactured_data
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +54,13 @@ def test_displacement_recovery_matches_the_stress(spaces):
     assert norm > 0 and defect < 1e-20 * max(norm, 1.0)
 
 
-def test_the_step_matrix_is_factorised_once(spaces, monkeypatch):
+@pytest.fixture
+def threaded(monkeypatch):
+    """`march` hands work to its second thread however small the problem."""
+    monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
+
+
+def test_the_step_matrix_is_factorised_once(spaces, monkeypatch, threaded):
     """The time loop applies precomputed operators only: no assembly, no factorisation."""
     scheme = BackwardEuler(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
     calls = []
@@ -58,12 +69,78 @@ def test_the_step_matrix_is_factorised_once(spaces, monkeypatch):
     monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
     for _ in range(3):
         scheme.step()
-    assert calls == []
+    scheme.march(3)
+    assert calls == [] and scheme.n == 6
     # the patches are live: the same calls outside the loop are seen
     forms.step_matrix(spaces, Materials(), 1e-2).Assemble()
     ngs.LinearForm(spaces.mixed).Assemble()
     scheme._matrix.Inverse(spaces.mixed.FreeDofs())
     assert calls == ["assemble", "assemble load", "inverse"]
+
+
+def paper_scheme(mesh):
+    """The paper's experiment (time-dependent loads and Dirichlet data) and its error norms."""
+    case = paper_case(1e-2)
+    dirichlet = dirichlet_boundaries(mesh)
+    spaces = build_spaces(mesh, "mini", dirichlet=dirichlet)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
+    return BackwardEuler(spaces, case.materials, data, case.dt), Errors(spaces, case.exact, case.materials)
+
+
+def same_state(a: BackwardEuler, b: BackwardEuler) -> bool:
+    """Equal (v, p) and σ up to round-off, at the same step."""
+    pairs = ((a.state.vec, b.state.vec), (a.stress.vec, b.stress.vec))
+    return a.n == b.n and a.time == b.time and all(
+        np.abs(x.FV().NumPy() - y.FV().NumPy()).max() <= 1e-12 * np.abs(y.FV().NumPy()).max() for x, y in pairs)
+
+
+@pytest.mark.parametrize("threads", ["one", "two"])
+def test_march_equals_step(paper_meshes, request, threads):
+    """`march` observes every step once, in order, with the states of `step`. With two threads the
+    right-hand side is (M − Δt² B M_σ⁻¹C) vⁿ − Δt B σⁿ⁻¹ (a lagged stress): equal up to round-off;
+    with one `march` is `step` in a loop, bit for bit."""
+    if threads == "two":
+        request.getfixturevalue("threaded")
+    stepped, errors = paper_scheme(paper_meshes[1])
+    marched, _ = paper_scheme(paper_meshes[1])
+    expected = []
+    for _ in range(7):
+        stepped.step()
+        expected.append((stepped.n, stepped.time, errors(stepped)))
+    seen, names = [], set()
+
+    def observe(scheme):
+        seen.append((scheme.n, scheme.time, errors(scheme)))
+        names.add(threading.current_thread().name.startswith("fsivsp-march"))
+
+    marched.march(7, observe)
+    assert [step[:2] for step in seen] == [step[:2] for step in expected]
+    for (*_, mine), (*_, theirs) in zip(seen, expected):
+        assert mine == pytest.approx(theirs, rel=1e-9, abs=0)
+    assert same_state(marched, stepped)
+    assert names == ({True, False} if threads == "two" else {False})
+    if threads == "one":
+        assert np.array_equal(marched.stress.vec.FV().NumPy(), stepped.stress.vec.FV().NumPy())
+
+
+def test_march_stops_at_a_consistent_step(paper_meshes, threaded):
+    """An observer that raises leaves the scheme at the step it saw, whole, and stepping goes on from there."""
+    stepped, _ = paper_scheme(paper_meshes[1])
+    marched, _ = paper_scheme(paper_meshes[1])
+
+    def observe(scheme):
+        if scheme.n == 3:
+            raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        marched.march(7, observe)
+    for _ in range(3):
+        stepped.step()
+    assert same_state(marched, stepped)
+    marched.march(2)
+    stepped.step()
+    stepped.step()
+    assert same_state(marched, stepped)
 
 
 def test_negative_time_step_is_refused(spaces):
