@@ -283,7 +283,8 @@ class BackwardEuler:
         a time and in order) and the part of the next right-hand side without vⁿ⁺¹ (`_lagged_data`).
         Between two solves only the product (M − Δt² B M_σ⁻¹C) vⁿ⁺¹ is left. ``observe`` must not step
         the scheme. The results equal `step` repeated up to round-off (7e-14 relative after 100 steps of the
-        paper's experiment, level 4)."""
+        paper's experiment, level 4). Under NGSolve's TaskManager the two threads compete for its workers:
+        `step` is faster there (100 steps at 17 931 unknowns: 0.33 s against 0.43 s)."""
         if self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS:
             for _ in range(steps):
                 self.step()
