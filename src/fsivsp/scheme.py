@@ -279,8 +279,9 @@ class BackwardEuler:
         """``steps`` steps of (5.1), calling ``observe(self)`` after each one with the scheme at that step.
 
         From `MARCH_THREAD_MIN_DOFS` free unknowns on, a second thread finishes step n while this one
-        solves step n + 1: the stress update σⁿ = σⁿ⁻¹ + Δt M_σ⁻¹C vⁿ, ``observe`` (there, one call at
-        a time and in order) and the part of the next right-hand side without vⁿ⁺¹ (`_lagged_data`).
+        solves step n + 1: the stress update σⁿ = σⁿ⁻¹ + Δt M_σ⁻¹C vⁿ, ``observe`` (one call at a time
+        and in order; the last in this thread) and the part of the next right-hand side without vⁿ⁺¹
+        (`_lagged_data`).
         Between two solves only the product (M − Δt² B M_σ⁻¹C) vⁿ⁺¹ is left. ``observe`` must not step
         the scheme. The results equal `step` repeated up to round-off (7e-14 relative after 100 steps of the
         paper's experiment, level 4). Under NGSolve's TaskManager the two threads compete for its workers:

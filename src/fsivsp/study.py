@@ -89,17 +89,23 @@ def paper_dofs(counts: dict[str, int]) -> int:
     return 2 * (counts["vertices"] - counts["boundary_vertices"]) + 2 * counts["fluid_cells"] + counts["fluid_vertices"]
 
 
-def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
-    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
+def discretise(case: Case, mesh: ngs.Mesh) -> tuple[BackwardEuler, Errors]:
+    """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
     check_regions(mesh)
     if case.curved:
         mesh.Curve(base_order(case.family, case.order))
-    start = clock.perf_counter()
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
     scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver)
-    errors_at = Errors(spaces, case.exact, case.materials)
+    return scheme, Errors(spaces, case.exact, case.materials)
+
+
+def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
+    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
+    start = clock.perf_counter()
+    scheme, errors_at = discretise(case, mesh)
+    spaces = scheme.spaces
     setup = clock.perf_counter() - start
     squares: dict[str, float] = {}
 
