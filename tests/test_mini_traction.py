@@ -125,13 +125,18 @@ def test_coupled_pressure_error_is_that_of_the_traction_problem(meshes, level):
     assert 0.8 < ratio < 1.25, ratio
 
 
+def scipy_matrix(form: ngs.BilinearForm) -> sp.csr_matrix:
+    """The assembled matrix of ``form`` as a scipy matrix."""
+    rows, cols, values = form.mat.COO()
+    return sp.csr_matrix((values.NumPy(), (rows.NumPy(), cols.NumPy())), shape=(form.mat.height, form.mat.width))
+
+
 def pressure_mass(spaces: Spaces) -> sp.csr_matrix:
-    """∫_F p q on the mixed space's dofs, as a scipy matrix."""
+    """∫_F p q on the mixed space's dofs."""
     p, q = spaces.mixed.TrialFunction()[1], spaces.mixed.TestFunction()[1]
     m = ngs.BilinearForm(spaces.mixed)
     m += integral(p * q, spaces, FLUID)
-    rows, cols, values = m.Assemble().mat.COO()
-    return sp.csr_matrix((values.NumPy(), (rows.NumPy(), cols.NumPy())), shape=(spaces.mixed.ndof,) * 2)
+    return scipy_matrix(m.Assemble())
 
 
 def schur_bottom(spaces: Spaces, a: ngs.BilinearForm, free: ngs.BitArray, count: int = 3) -> np.ndarray:
@@ -167,11 +172,12 @@ def schur_bottom(spaces: Spaces, a: ngs.BilinearForm, free: ngs.BitArray, count:
 
 
 def test_mini_inf_sup_constant_is_still_falling_next_to_a_traction_boundary(meshes):
-    # measured, levels 2 -> 3: traction 4.24, 7.22, 7.50 -> 3.69, 5.60, 5.64 (falling from level 0 on);
-    # velocity (after the constant pressure) 2.316, 2.353, 2.619 -> 2.321, 2.353, 2.611
+    # measured, levels 2 -> 3: traction 4.24, 7.22, 7.50 -> 3.69, 5.60, 5.64, falling by 20% on average
+    # (from level 0 on, and by 26-39% from level 3 to 4); velocity (after the constant pressure)
+    # 2.316, 2.353, 2.619 -> 2.321, 2.353, 2.611
     traction = [schur_bottom(*fluid_step(mesh, traction=True)) for mesh in meshes[1:]]
     velocity = [schur_bottom(*fluid_step(mesh, traction=False), count=4)[1:] for mesh in meshes[1:]]
-    assert np.all(traction[1] / traction[0] < 0.9), traction
+    assert np.mean(traction[1] / traction[0]) < 0.85, traction
     assert np.allclose(velocity[1], velocity[0], rtol=0.02), velocity
 
 
@@ -231,8 +237,7 @@ def traction_pressure_error_two_grid(coarse: ngs.Mesh, level: int, sweeps: int =
     f.vec.data += a.harmonic_extension_trans * f.vec
     free = np.flatnonzero(np.array(free, dtype=bool))
     velocity = free[free < spaces.velocity.ndof]
-    rows, cols, values = a.mat.COO()
-    matrix = sp.csr_matrix((values.NumPy(), (rows.NumPy(), cols.NumPy())), shape=(a.mat.height,) * 2)[free][:, free]
+    matrix = scipy_matrix(a)[free][:, free]
     matrix = (matrix + matrix.T) / 2  # symmetric up to round-off; MinRes checks
     n = len(velocity)
     block = matrix[:n, :n].tocsr()
