@@ -4,11 +4,10 @@ Around a soft solid the enclosed fluid sees the interface almost as a traction b
 pins the element's behaviour there, with Stokes alone in the example's polyhedral ball (one backward
 Euler step of the example, exact steady solution): with the exact traction on the interface MINI's
 pressure converges slowly on the levels the matrix can afford, with the exact velocity there it
-superconverges. The discrete inf-sup constant says why: with the traction boundary the bottom of
-the pressure Schur complement's spectrum is still falling on these levels (the meshes resolve more
-of the weakly controlled pressure modes at each refinement), with the velocity prescribed it has
-settled, and the coupled step's spectrum is the traction problem's. If these stop being true, the
-README's explanation is stale.
+superconverges; on level 5 (slow) the traction problem reaches its rate. The coupled step's
+discrete inf-sup constant is the traction problem's: the bottom of the pressure Schur complement's
+spectrum, still falling with the traction boundary, settled with the velocity prescribed. If these
+stop being true, the README's explanation is stale.
 """
 import netgen.meshing as nm
 import ngsolve as ngs
@@ -173,7 +172,7 @@ def schur_bottom(spaces: Spaces, a: ngs.BilinearForm, free: ngs.BitArray, count:
 
 def test_mini_inf_sup_constant_is_still_falling_next_to_a_traction_boundary(meshes):
     # measured, levels 2 -> 3: traction 4.24, 7.22, 7.50 -> 3.69, 5.60, 5.64, falling by 20% on average
-    # (from level 0 on, and by 26-39% from level 3 to 4); velocity (after the constant pressure)
+    # (from level 0 on, and still by 25-33% from level 4 to 5); velocity (after the constant pressure)
     # 2.316, 2.353, 2.619 -> 2.321, 2.353, 2.611
     traction = [schur_bottom(*fluid_step(mesh, traction=True)) for mesh in meshes[1:]]
     velocity = [schur_bottom(*fluid_step(mesh, traction=False), count=4)[1:] for mesh in meshes[1:]]
