@@ -240,14 +240,15 @@ def traction_pressure_error_two_grid(coarse: ngs.Mesh, level: int, sweeps: int =
     matrix = (matrix + matrix.T) / 2  # symmetric up to round-off; MinRes checks
     n = len(velocity)
     block = matrix[:n, :n].tocsr()
-    position = dict(zip(velocity, range(n)))
-    prolongation = sp.lil_matrix((n, 3 * coarse_vertices))
+    position = np.empty(spaces.velocity.ndof, dtype=int)
+    position[velocity] = np.arange(n)
+    entries = []  # (fine row, coarse column, weight)
     for vertex in range(mesh.nv):
         parents = [vertex] if vertex < coarse_vertices else mesh.GetParentVertices(vertex)
         for component, dof in enumerate(spaces.velocity.GetDofNrs(ngs.NodeId(ngs.VERTEX, vertex))):
-            for parent in parents:
-                prolongation[position[dof], component * coarse_vertices + parent] = 1 / len(parents)
-    prolongation = prolongation.tocsr()
+            entries += [(position[dof], component * coarse_vertices + parent, 1 / len(parents)) for parent in parents]
+    rows, cols, weights = zip(*entries)
+    prolongation = sp.csr_matrix((weights, (rows, cols)), shape=(n, 3 * coarse_vertices))
     coarse_solve = spla.splu((prolongation.T @ block @ prolongation).tocsc(), permc_spec="MMD_AT_PLUS_A",
                              diag_pivot_thresh=0.0, options={"SymmetricMode": True}).solve
     diagonal = block.diagonal()
