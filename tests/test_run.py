@@ -166,6 +166,9 @@ BAD = [
     ('family = "mini"', 'family = "p2p1"', "discretisation.family"),
     ('family = "mini"', 'family = "taylor_hood"\norder = 0', "discretisation.order"),
     ('family = "mini"', 'family = "mini"\nsolver = "magic"', "discretisation.solver"),
+    ('family = "mini"', 'family = "mini"\ntolerance = 0', "discretisation.tolerance"),
+    ('family = "mini"', 'family = "mini"\ntolerance = 1.0', "discretisation.tolerance"),
+    ('family = "mini"', 'family = "mini"\nmax_iterations = 0', "discretisation.max_iterations"),
     ("[boundary.inflow]", "[boundary.inlet]", "boundary.inlet"),
     ("[boundary.solid_ends]", "[boundary.interface]", "boundary.interface"),
     ('traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)", "0"]', 'traction = ["1.0e4*exp(-((t - 0.0005)/0.0002)**2)"]', "boundary.inflow.traction"),
@@ -230,3 +233,34 @@ def test_initial_data_options_reach_the_run(tmp_path, initial_stress, discrete_d
     gap = max(abs(g) for g in mean_gap) / scale
     assert (gap < 1e-10) == (initial_stress == "projection"), gap
     assert discrete_divergence(scheme) < 1e-12
+
+
+def iterative(text: str, limit: str = "") -> str:
+    return text.replace('family = "mini"', f'family = "mini"\nsolver = "iterative"{limit}')
+
+
+def test_iterative_resume_equals_uninterrupted(tmp_path):
+    """The iterative solver starts each step from the state before it, which a checkpoint restores:
+    a run continued from step 20 ends bit for bit where an uninterrupted one does."""
+    reference, out = tmp_path / "reference", tmp_path / "resumed"
+    assert main(["run", str(write_case(tmp_path, text=iterative(CASE.format(T=0.002, every=10)))),
+                 "--out", str(reference), "--quiet"]) == 0
+    assert main(["run", str(write_case(tmp_path, text=iterative(CASE.format(T=0.001, every=10)))),
+                 "--out", str(out), "--quiet"]) == 0
+    assert main(["run", str(write_case(tmp_path, text=iterative(CASE.format(T=0.002, every=10)))),
+                 "--out", str(out), "--resume", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["resumed_from"] == 20 and summary["solver"]["method"] == "iterative"
+    assert summary["solver"]["iterations"]["max"] >= summary["solver"]["iterations"]["mean"] > 0
+    ours, theirs = final_fields(out), final_fields(reference)
+    for name in theirs:
+        assert np.array_equal(ours[name], theirs[name]), name
+
+
+def test_a_solve_that_does_not_converge_stops_with_exit_3(tmp_path, capsys):
+    text = iterative(CASE.format(T=0.002, every=10), "\nmax_iterations = 2")
+    out = tmp_path / "out"
+    assert main(["run", str(write_case(tmp_path, text=text)), "--out", str(out), "--quiet"]) == 3
+    err = capsys.readouterr().err.strip()
+    assert "step 1 " in err and "did not reach the tolerance" in err and "\n" not in err, err
+    assert json.loads((out / "summary.json").read_text())["status"] == "not converged"

@@ -14,13 +14,15 @@ from typing import Any
 
 from .materials import Materials
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
+from .solvers import MAX_ITERATIONS, TOLERANCE, solver_names
 from .spaces import FAMILIES
 
 SECTIONS = {
     "geometry": None,  # free-form parameters, checked by the geometry builder
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
     "time": {"T", "dt"},
-    "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "curved"},
+    "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
+                       "curved"},
     "exact": {"velocity", "pressure", "displacement"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
@@ -109,8 +111,10 @@ class Discretisation:
     order: int = 1
     initial_stress: str = "displacement"
     initial_velocity: str = "interpolation"
-    solver: str | None = None
+    solver: str = "auto"
     curved: bool = True
+    tolerance: float = TOLERANCE
+    max_iterations: int = MAX_ITERATIONS
 
 
 def read_discretisation(table: dict) -> Discretisation:
@@ -122,14 +126,17 @@ def read_discretisation(table: dict) -> Discretisation:
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
     initial = choice(table, "initial_stress", "discretisation", INITIAL_STRESS, INITIAL_STRESS[0])
     velocity = choice(table, "initial_velocity", "discretisation", INITIAL_VELOCITY, INITIAL_VELOCITY[0])
-    solver = table.get("solver")
-    if solver is not None:
-        from .solvers import available_methods
-        choice(table, "solver", "discretisation", available_methods(), None)
+    solver = choice(table, "solver", "discretisation", solver_names(), "auto")
+    tolerance = number(table, "tolerance", "discretisation", TOLERANCE, minimum=0)
+    if tolerance >= 1:
+        raise CaseError(f"discretisation.tolerance: expected a number in (0, 1), got {tolerance!r}")
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    return Discretisation(family, order, initial, velocity, solver, curved)
+    limit = table.get("max_iterations", MAX_ITERATIONS)
+    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+        raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
+    return Discretisation(family, order, initial, velocity, solver, curved, tolerance, limit)
 
 
 def read_time(table: dict) -> tuple[float, float]:
@@ -208,5 +215,6 @@ def to_study(case: StudyCase):
         materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
         initial_velocity=disc.initial_velocity,
-        project_refinement=disc.curved, solver=disc.solver, curved=disc.curved,
+        project_refinement=disc.curved, solver=disc.solver, curved=disc.curved, tolerance=disc.tolerance,
+        max_iterations=disc.max_iterations,
     )

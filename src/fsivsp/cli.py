@@ -12,6 +12,7 @@ from . import __version__
 from .case import CaseError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
+from .solvers import TOLERANCE, NotConverged
 
 MAX_LEVEL = 6
 
@@ -51,6 +52,17 @@ def positive_float(text: str) -> float:
     return value
 
 
+def tolerance_arg(text: str) -> float:
+    """A number in (0, 1)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text!r}")
+    return value
+
+
 def positive_int(text: str) -> int:
     """A whole number ≥ 1."""
     if not text.strip().isdigit() or int(text) < 1:
@@ -80,7 +92,11 @@ def build_parser() -> Parser:
     paper.add_argument("--project", action="store_true",
                        help="move new interface nodes onto the circle when refining (default: they stay at the "
                        "chords' midpoints; projection raises e(p) by 12-19%%)")
-    paper.add_argument("--solver", default=None, help="direct solver (default: the fastest safe one available)")
+    paper.add_argument("--solver", default="auto", metavar="NAME",
+                       help="auto (default: direct below the measured crossover, iterative above), direct, iterative, "
+                       "or a direct method (pardiso, umfpack, sparsecholesky, scipy)")
+    paper.add_argument("--tolerance", type=tolerance_arg, default=TOLERANCE,
+                       help=f"the iterative solver's relative tolerance (default {TOLERANCE:g})")
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
     paper.add_argument("--out", type=Path, default=Path("paper-report"), metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
@@ -122,7 +138,7 @@ def build_parser() -> Parser:
 
 def paper_options(args) -> dict:
     return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
-            "project_refinement": args.project, "solver": args.solver}
+            "project_refinement": args.project, "solver": args.solver, "tolerance": args.tolerance}
 
 
 def paper_job(job: tuple[float, int, dict]) -> dict:
@@ -141,11 +157,11 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
 def paper_command(args) -> int:
     from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
     from .report import convergence_plot, error_table, rate_table, write_atomic, write_json
-    from .solvers import available_methods
+    from .solvers import solver_names
     from .study import rates, study
 
-    if args.solver is not None and args.solver not in available_methods():
-        raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(available_methods())}, got {args.solver!r}")
+    if args.solver not in solver_names():
+        raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(solver_names())}, got {args.solver!r}")
     options = paper_options(args)
     if not args.all:
         case = paper_case(args.dt, **options)
@@ -217,7 +233,7 @@ def run_command(args) -> int:
     out = args.out or Path(args.case.stem)
     try:
         summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
-    except SolveDiverged as error:
+    except (SolveDiverged, NotConverged) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
@@ -276,6 +292,9 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, CaseError, GeometryError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except NotConverged as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 3
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130

@@ -118,3 +118,27 @@ def stress_mass(spaces: Spaces) -> ngs.BilinearForm:
     a = ngs.BilinearForm(spaces.stress)
     a += integral(InnerProduct(sigma, tau), spaces, SOLID)
     return a
+
+
+# -- the norm of the step (the iterative solver's block preconditioner, `solvers.iterative`) -------------
+
+def velocity_component_block(u, w, j: int, mat: Materials, dt: float, mesh: ngs.Mesh):
+    """The j-th diagonal block of the velocity part of `step_matrix`, for scalar u, w (the velocity
+    u e_j, tested with w e_j): ε(u e_j):ε(w e_j) = ½(∇u·∇w + ∂_j u ∂_j w), div(u e_j) = ∂_j u, so
+    ∫ρ u w + νΔt ∫_F (∇u·∇w + ∂_j u ∂_j w) + Δt² ∫_S μ(∇u·∇w + ∂_j u ∂_j w) + λ ∂_j u ∂_j w."""
+    gu, gw = ngs.grad(u), ngs.grad(w)
+    strain = gu * gw + gu[j] * gw[j]
+    return (density(mat, mesh) * u * w * ngs.dx
+            + mat.nu * dt * strain * ngs.dx(FLUID)
+            + dt**2 * (mat.mu * strain + mat.lam * gu[j] * gw[j]) * ngs.dx(SOLID))
+
+
+def pressure_laplacian(p, q):
+    """∫_F ∇p·∇q: with ρ_F/Δt², the inverse of the pressure Schur complement where the mass dominates
+    (Cahouet–Chabard)."""
+    return ngs.grad(p) * ngs.grad(q) * ngs.dx(FLUID)
+
+
+def pressure_mass(p, q):
+    """∫_F p q: with 2ν/Δt, the inverse of the pressure Schur complement where the viscosity dominates."""
+    return p * q * ngs.dx(FLUID)

@@ -10,6 +10,7 @@ import numpy as np
 from .geometry import CHANNEL_HEIGHT, CHANNEL_WIDTH, DISK_CENTRE, DISK_RADIUS, paper_channel
 from .manufactured import ExactSolution
 from .materials import Materials
+from .solvers import TOLERANCE
 from .study import Case
 
 #: Exact solution (75); the displacement u = ∫ v dt + u⁰ with u⁰ = v(0), so that σ_S n = σ_F n on the circle.
@@ -22,7 +23,8 @@ T_FINAL = 1.0
 
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
-               solver: str | None = None, initial_velocity: str = "interpolation") -> Case:
+               solver: str | None = None, initial_velocity: str = "interpolation",
+               tolerance: float = TOLERANCE) -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt``."""
     return Case(
         name=f"paper dt={dt:g}",
@@ -35,6 +37,7 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         initial_velocity=initial_velocity,
         project_refinement=project_refinement,
         solver=solver,
+        tolerance=tolerance,
     )
 
 

@@ -176,8 +176,8 @@ def build_scheme(case: RunCase):
         boundary_velocity=velocity,
         boundary_traction=traction,
     )
-    return BackwardEuler(spaces, case.materials, data, case.dt, solver=case.discretisation.solver,
-                         track_displacement=True)
+    return BackwardEuler(spaces, case.materials, data, case.dt, solver=disc.solver, track_displacement=True,
+                         tolerance=disc.tolerance, max_iterations=disc.max_iterations)
 
 
 class _Interrupt:
@@ -210,12 +210,19 @@ def l2_norms(scheme) -> dict[str, float]:
             "stress": math.sqrt(max(ngs.InnerProduct(sigma, mass * sigma), 0.0))}
 
 
+def peak_memory() -> int:
+    """The peak resident memory of this process so far, in bytes."""
+    import resource
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
     from tqdm.auto import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
+    from .solvers import NotConverged
 
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
@@ -257,9 +264,10 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             "mesh": {"vertices": case.mesh.nv, "cells": case.mesh.ne},
             "dofs": {"free": scheme.spaces.free_dofs(), "velocity": scheme.spaces.velocity.ndof,
                      "pressure": sum(scheme.spaces.pressure.FreeDofs()), "stress": scheme.spaces.stress.ndof},
-            "solver": {"method": scheme.solver.method, "residual": scheme.solver.residual},
-            "seconds": {"setup": setup, "factorisation": scheme.solver.factor_seconds,
+            "solver": scheme.solver.statistics(),
+            "seconds": {"setup": setup, "solver_setup": scheme.solver.factor_seconds,
                         "total": clock.perf_counter() - started},
+            "peak_memory_bytes": peak_memory(),
             "resumed_from": resumed_from,
             "energy": history,
             "l2_norms": l2_norms(scheme),
@@ -267,11 +275,20 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
         write_summary(out / "summary.json", summary)
         return summary
 
+    def advance() -> None:
+        try:
+            scheme.step()
+        except NotConverged as error:
+            last = latest_checkpoint(checkpoints)
+            finish("not converged")
+            raise NotConverged(f"step {scheme.n + 1} (t = {scheme.time + case.dt:g}): {error}; "
+                               f"last good checkpoint: {last if last else 'none'}") from None
+
     every, keep = case.output["every"], case.checkpoint_every
     with _Interrupt() as interrupt, tqdm(total=case.steps, initial=scheme.n, disable=quiet, unit="step",
                                          desc=case.path.stem) as bar:
         while scheme.n < case.steps:
-            scheme.step()
+            advance()
             if not np.all(np.isfinite(scheme.state.vec.FV().NumPy())):
                 last = latest_checkpoint(checkpoints)
                 finish("diverged")
@@ -286,6 +303,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
                 prune_checkpoints(checkpoints, keep=2)
             bar.update(1)
+            bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GB", refresh=False)
             if interrupt.requested:
                 finish("interrupted")
                 raise KeyboardInterrupt

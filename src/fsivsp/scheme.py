@@ -23,7 +23,7 @@ from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .manufactured import grad
 from .materials import Materials
-from .solvers import compact, factorise, to_ngsolve, to_scipy_csr
+from .solvers import MAX_ITERATIONS, TOLERANCE, compact, factorise, step_solver, to_ngsolve, to_scipy_csr
 from .spaces import Spaces
 
 
@@ -100,7 +100,10 @@ class BackwardEuler:
     """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1)."""
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
-                 solver: str | None = None, track_displacement: bool = False):
+                 solver: str | None = None, track_displacement: bool = False, tolerance: float = TOLERANCE,
+                 max_iterations: int = MAX_ITERATIONS):
+        """``solver``: a name `solvers.step_solver` accepts (None: ``"auto"``); ``tolerance`` and
+        ``max_iterations`` are the iterative solver's."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
@@ -108,7 +111,7 @@ class BackwardEuler:
 
         step = forms.step_matrix(spaces, materials, dt).Assemble()
         self._matrix = step.mat
-        self.solver = factorise(step.mat, X.FreeDofs(), method=solver)
+        self.solver = step_solver(step.mat, spaces, materials, dt, solver, tolerance, max_iterations)
         self._mass = compact(forms.velocity_mass(spaces, materials).Assemble().mat)
         self._divergence = compact(forms.stress_divergence(spaces).Assemble().mat)
         rate = forms.stress_rate(spaces, materials).Assemble().mat
@@ -309,7 +312,8 @@ class BackwardEuler:
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
             for j in range(1, steps + 1):
                 finished = second.submit(finish_previous, j)
-                self.solve(solutions[j % 2], rhs[j % 2], boundaries[j % 2])
+                self.solve(solutions[j % 2], rhs[j % 2], boundaries[j % 2],
+                           self.state.vec if j == 1 else solutions[(j - 1) % 2])
                 finished.result()
                 if j < steps:
                     rhs[(j + 1) % 2].data += lagged_mass * solutions[j % 2]
@@ -357,12 +361,12 @@ class BackwardEuler:
             values.add_to(boundary, time)
 
     def solve(self, out: ngs.BaseVector | None = None, rhs: ngs.BaseVector | None = None,
-              boundary: ngs.BaseVector | None = None) -> None:
-        """(vⁿ, pⁿ) = lift + A_ff⁻¹ rhs with the factorisation computed once; by default from the
-        vectors of `right_hand_side` into the state."""
+              boundary: ngs.BaseVector | None = None, previous: ngs.BaseVector | None = None) -> None:
+        """(vⁿ, pⁿ) = lift + A_ff⁻¹ rhs with the solver built once (``previous``, the step before, starts an
+        iterative solver); by default from the vectors of `right_hand_side` into the state."""
         out = self.state.vec if out is None else out
-        out.data = self._boundary if boundary is None else boundary
-        self.solver.inverse.MultAdd(1.0, self._rhs if rhs is None else rhs, out)
+        self.solver.solve_step(self._rhs if rhs is None else rhs, self._boundary if boundary is None else boundary,
+                               out, self.state.vec if previous is None else previous)
 
     def update_stress(self) -> None:
         """Step 2 of (5.1), and the displacement (5) if tracked."""

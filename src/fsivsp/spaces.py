@@ -28,6 +28,7 @@ class Spaces:
     stress: ngs.FESpace
     mixed: ngs.FESpace
     bubble_order: int = 0
+    dirichlet: str = ""  #: the boundaries where the velocity is prescribed ("a|b")
 
     @property
     def velocity_order(self) -> int:
@@ -85,4 +86,4 @@ def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
     pressure = ngs.H1(mesh, order=order, definedon=FLUID)
     stress_order = 0 if family == "mini" else order
     stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
-    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bubble)
+    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bubble, dirichlet)

@@ -15,6 +15,7 @@ from .manufactured import ExactSolution
 from .materials import Materials
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, whole
 from .scheme import INITIAL_STRESS, BackwardEuler, Data
+from .solvers import MAX_ITERATIONS, TOLERANCE
 from .spaces import Spaces, base_order, build_spaces
 
 
@@ -35,6 +36,8 @@ class Case:
     project_refinement: bool = True
     solver: str | None = None
     curved: bool = False
+    tolerance: float = TOLERANCE
+    max_iterations: int = MAX_ITERATIONS
 
     @property
     def steps(self) -> int:
@@ -107,7 +110,8 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[BackwardEuler, Errors]:
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
-    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver)
+    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
+                           max_iterations=case.max_iterations)
     return scheme, Errors(spaces, case.exact, case.materials)
 
 
@@ -141,6 +145,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
         "errors": errors,
         "solver": scheme.solver.method,
         "residual": scheme.solver.residual,
+        "iterations": scheme.solver.statistics().get("iterations"),
         "seconds": {
             "assembly": setup - scheme.solver.factor_seconds,
             "factorisation": scheme.solver.factor_seconds,

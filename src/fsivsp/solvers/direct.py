@@ -4,7 +4,7 @@ Every time step of the scheme solves one linear system with the same symmetric
 *indefinite* matrix (velocity block plus the fluid pressure constraint), so the
 matrix is factorised once per run and the factorisation is applied at each step.
 :class:`DirectSolver` wraps the available sparse direct solvers behind one small
-interface so that an iterative or distributed path can replace it later:
+interface (`fsivsp.solvers.StepSolver`, shared with the iterative solver):
 
 >>> solver = DirectSolver(a.mat, X.FreeDofs())          # factorises and checks
 >>> x.data = solver.inverse * r                         # composes like NGSolve inverses
@@ -398,6 +398,20 @@ class DirectSolver:
     def solve(self, rhs, out) -> None:
         """``out[free] = A_ff^{-1} rhs[free]``, ``out[non-free] = 0``."""
         out.data = self.inverse * rhs
+
+    def solve_step(self, rhs, boundary, out, guess=None) -> None:
+        """``out = boundary + A_ff^{-1} rhs``: the scheme's step (`fsivsp.solvers.StepSolver`; a direct
+        solver needs no ``guess``)."""
+        out.data = boundary
+        self.inverse.MultAdd(1.0, rhs, out)
+
+    def progress(self) -> str:
+        """The solver in a progress line."""
+        return self.method
+
+    def statistics(self) -> dict:
+        """What a run records of its solver."""
+        return {"method": self.method, "residual": self.residual, "setup_seconds": self.factor_seconds}
 
     def __mul__(self, rhs):
         """``solver * r`` is the lazy expression ``solver.inverse * r``."""

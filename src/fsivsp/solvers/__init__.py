@@ -1,0 +1,62 @@
+"""Solvers of step 1 of the scheme (5.1), behind one interface (`StepSolver`).
+
+- `direct`: factorise the step matrix once, apply the factors at every step (`DirectSolver`);
+- `iterative`: MinRes with a block preconditioner built once (`IterativeSolver`), for sizes where a
+  factorisation no longer fits or pays.
+
+`step_solver` picks one by name: ``"auto"`` (the default) takes the direct solver below
+`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above; ``"direct"`` the fastest
+safe direct method; ``"iterative"``; or a direct method by name (`METHODS`).
+"""
+from __future__ import annotations
+
+from typing import Protocol
+
+import ngsolve as ngs
+
+from .direct import (METHODS, PIVOTING_METHODS, DirectSolver, SolverError, available_methods, compact,
+                     default_method, factorise, free_mask, is_symmetric, to_ngsolve, to_scipy_csr)
+from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
+
+__all__ = [
+    "AUTO_ITERATIVE_DOFS", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver", "IterativeSolver",
+    "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
+    "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
+]
+
+#: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension), where it is
+#: faster per run of a few hundred steps or the factorisation no longer fits (BENCHMARKS.md, "Solvers").
+AUTO_ITERATIVE_DOFS = {2: 1_000_000, 3: 150_000}
+
+
+class StepSolver(Protocol):
+    """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: the previous
+    step's solution, a start for an iterative method) and a record for reports."""
+
+    method: str
+    factor_seconds: float
+
+    def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
+                   guess: ngs.BaseVector | None = None) -> None: ...
+
+    def progress(self) -> str: ...
+
+    def statistics(self) -> dict: ...
+
+
+def solver_names() -> list[str]:
+    """The names `step_solver` accepts here."""
+    return ["auto", "direct", "iterative", *available_methods()]
+
+
+def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str | None = "auto",
+                tol: float = TOLERANCE, maxiter: int = MAX_ITERATIONS) -> StepSolver:
+    """The solver ``name`` (see the module's docstring; None is ``"auto"``) for the step matrix."""
+    name = "auto" if name is None else name
+    if name not in solver_names():
+        raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
+    if name == "auto":
+        name = "iterative" if spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim] else "direct"
+    if name == "iterative":
+        return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
+    return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name == "direct" else name)
