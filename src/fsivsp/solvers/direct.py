@@ -103,9 +103,8 @@ def _raw_csr(matrix):
 
 def to_ngsolve(matrix) -> ngs.BaseMatrix:
     """A scipy sparse matrix as an NGSolve sparse matrix (general storage)."""
-    coo = matrix.tocoo()
-    return ngs.la.SparseMatrixd.CreateFromCOO(coo.row.tolist(), coo.col.tolist(), coo.data.tolist(),
-                                               matrix.shape[0], matrix.shape[1])
+    coo = matrix.tocoo()  # numpy arrays straight to C++: Python lists cost ~100 bytes an entry
+    return ngs.la.SparseMatrixd.CreateFromCOO(coo.row, coo.col, coo.data, matrix.shape[0], matrix.shape[1])
 
 
 def compact(matrix) -> ngs.BaseMatrix:
@@ -182,10 +181,7 @@ def is_symmetric(matrix, rtol: float = 1e-12) -> bool:
 
 def full_storage_copy(matrix):
     """A full-storage ``SparseMatrixd`` copy of an NGSolve sparse matrix."""
-    coo = to_scipy_csr(matrix).tocoo()
-    return ngs.la.SparseMatrixd.CreateFromCOO(
-        coo.row.tolist(), coo.col.tolist(), coo.data.tolist(), matrix.height, matrix.width
-    )
+    return to_ngsolve(to_scipy_csr(matrix))
 
 
 def _symmetrise_lower(lower):
