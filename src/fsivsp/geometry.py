@@ -25,6 +25,8 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import os
+import sys
 from numbers import Real
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -535,11 +537,28 @@ def load_mesh(path: str | Path) -> ngs.Mesh:
 # CAD files
 # ---------------------------------------------------------------------------------------------
 
+@contextlib.contextmanager
+def _silenced():
+    """Send what C++ code prints to stdout and stderr (OCC's parser messages) to /dev/null."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
 def _read_cad(path: str | Path) -> tuple[Path, list]:
     """The solids of a STEP, BREP or IGES file (netgen's OCC kernel)."""
     path, _ = _existing_file(path, CAD_SUFFIXES, "CAD file")
     try:
-        with contextlib.redirect_stdout(io.StringIO()):
+        with _silenced():
             solids = list(OCCGeometry(str(path)).shape.solids)
     except Exception as error:  # noqa: BLE001 - OCC raises bare Exceptions
         raise GeometryError(f"CAD file {path}: cannot read ({_one_line(error)})") from None
@@ -568,6 +587,9 @@ def _solid_regions(path: Path, solids: list, regions: Any) -> list[str]:
         if medium not in (FLUID, SOLID):
             raise GeometryError(f"geometry.regions: solid {i} of {path} is neither '{FLUID}' nor '{SOLID}' "
                                 f"(solids: {listing}); map it, e.g. regions = {{ \"{i}\" = \"{FLUID}\" }}")
+    for medium in (FLUID, SOLID):
+        if medium not in media:
+            raise GeometryError(f"geometry.regions: no solid of {path} is '{medium}' (solids: {listing})")
     return media
 
 
@@ -605,11 +627,10 @@ def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = No
         h = _positive("maxh", maxh)
     mesh = _mesh(shape, dim, h)
     _name_faces(mesh.ngmesh)
-    try:
-        check_regions(mesh)
-    except GeometryError as error:
-        raise GeometryError(f"CAD file {path}: {str(error).removeprefix('mesh: ')} "
-                            "(do the fluid and solid solids touch?)") from None
+    if INTERFACE not in mesh.GetBoundaries():
+        raise GeometryError(f"CAD file {path}: no face is shared by the fluid and the solid, so there is "
+                            f"no '{INTERFACE}' (do they touch?)")
+    check_regions(mesh)
     return mesh
 
 
