@@ -451,16 +451,15 @@ def _outward(points: np.ndarray, facet: list[int], opposite: int) -> list[int]:
 
 def _gmsh_boundaries(path: Path, points: np.ndarray, cells: list[list[int]], materials: list[str],
                      regions: list[int], facets: list[tuple[str, list[int]]]):
-    """Boundary parts (name, domin, domout) and oriented facets for `netgen_mesh`; refuses
-    interface facets not between a fluid and a solid cell and unnamed outer or fluid–solid facets."""
+    """Boundary parts (name, domin, domout) and the facets oriented out of domin, for `netgen_mesh`;
+    refuses a facet bordering no cell and an interface facet not between a fluid and a solid cell."""
     neighbours = _facet_neighbours(cells)
     parts: dict[tuple[str, int, int], int] = {}
-    oriented, named = [], set()
+    oriented = []
     for name, facet in facets:
-        key = tuple(sorted(facet))
-        sides = sorted(neighbours.get(key, []), key=lambda side: regions[side[0]])
-        media = sorted(materials[regions[c] - 1] for c, _ in sides)
-        if not sides or (name == INTERFACE and media != [FLUID, SOLID]):
+        sides = sorted(neighbours.get(tuple(sorted(facet)), []), key=lambda side: regions[side[0]])
+        media = [materials[regions[c] - 1] for c, _ in sides]
+        if not sides or (name == INTERFACE and media != [FLUID, SOLID] and media != [SOLID, FLUID]):
             where = tuple(round(float(c), 6) for c in points[facet].mean(axis=0))
             found = " and ".join(f"a {medium} cell" for medium in media) or "no cell"
             raise GeometryError(f"mesh file {path}: a facet of '{name}' at {where} borders {found}"
@@ -468,15 +467,21 @@ def _gmsh_boundaries(path: Path, points: np.ndarray, cells: list[list[int]], mat
         domains = [regions[c] for c, _ in sides] + [0]
         number = parts.setdefault((name, domains[0], domains[1]), len(parts) + 1)
         oriented.append((number, _outward(points, facet, sides[0][1])))
-        named.add(key)
-    unnamed = [sorted(materials[regions[c] - 1] for c, _ in sides) for key, sides in neighbours.items()
-               if key not in named and (len(sides) == 1 or regions[sides[0][0]] != regions[sides[1][0]])]
-    if unnamed:
-        inner = sum(len(media) == 2 for media in unnamed)
-        what = (f"{inner} facets between fluid and solid cells are not in the physical group '{INTERFACE}'" if inner
-                else f"{len(unnamed)} outer facets are in no physical group (e.g. '{FLUID_WALL}' or '{SOLID_WALL}')")
-        raise GeometryError(f"mesh file {path}: {what}")
+    _unnamed_facets(path, neighbours, {tuple(sorted(facet)) for _, facet in facets}, regions)
     return list(parts), oriented
+
+
+def _unnamed_facets(path: Path, neighbours: dict, named: set, regions: list[int]) -> None:
+    """Refuse outer facets and fluid–solid facets that are in no physical group."""
+    unnamed = [sides for key, sides in neighbours.items()
+               if key not in named and (len(sides) == 1 or regions[sides[0][0]] != regions[sides[1][0]])]
+    inner = sum(len(sides) == 2 for sides in unnamed)
+    if inner:
+        raise GeometryError(f"mesh file {path}: {inner} facets between fluid and solid cells are not in the "
+                            f"physical group '{INTERFACE}'")
+    if unnamed:
+        raise GeometryError(f"mesh file {path}: {len(unnamed)} outer facets are in no physical group "
+                            f"(e.g. '{FLUID_WALL}' or '{SOLID_WALL}')")
 
 
 def _load_gmsh(path: Path) -> ngs.Mesh:
