@@ -142,7 +142,7 @@ def test_step_example_meshes_and_curves():
     mesh = build_geometry("cad", 3, 0.4, path=str(STEP))
     assert set(mesh.GetMaterials()) == {FLUID, SOLID}
     assert set(mesh.GetBoundaries()) == {INTERFACE, SOLID_WALL, "load"}  # "load": named in the file
-    assert 100 < mesh.nv < 600
+    assert 100 < mesh.nv < 600 < build_geometry("cad", 3, None, path=STEP).nv  # default maxh: 0.1
     cylinder = math.pi * 0.25**2 * 0.5
     straight = ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID))
     try:
@@ -291,12 +291,15 @@ def garbage(path: Path) -> Path:
     return path
 
 
-def two_boxes(path: Path, gap: float = 0.0, named: bool = True) -> Path:
-    from netgen.occ import Box, Glue, Pnt
+def two_boxes(path: Path, gap: float = 0.0, named: bool = True, outer: str | None = None) -> Path:
+    """A fluid box next to a solid one (``gap`` apart), ``outer`` the name of the fluid's far face."""
+    from netgen.occ import X, Box, Glue, Pnt
 
     fluid, solid = Box(Pnt(0, 0, 0), Pnt(1, 1, 1)), Box(Pnt(1 + gap, 0, 0), Pnt(2 + gap, 1, 1))
     if named:
         fluid.name, solid.name = FLUID, SOLID
+    if outer:
+        fluid.faces.Min(X).name = outer
     Glue([fluid, solid]).WriteStep(str(path))
     return path
 
@@ -306,6 +309,8 @@ CAD_FAULTS = {
     "garbage": (garbage, "", "error: CAD file {path}: cannot read"),
     "apart": (lambda p: two_boxes(p, gap=0.5), "", "no face is shared by the fluid and the solid"),
     "unnamed": (lambda p: two_boxes(p, named=False), "", "error: geometry.regions: solid 1 of {path} is neither"),
+    "outer-interface": (lambda p: two_boxes(p, outer=INTERFACE), "",
+                        "error: CAD file {path}: a face named 'interface' is not shared by the fluid and the solid"),
     "unknown-key": (two_boxes, 'regions = { "3" = "fluid" }', "error: geometry.regions.3: no solid of that name or number"),
     "bad-value": (two_boxes, 'regions = { "1" = "water" }', "error: geometry.regions.1: expected 'fluid' or 'solid', got 'water'"),
     "one-medium": (two_boxes, 'regions = { "2" = "fluid" }', "error: geometry.regions: no solid of {path} is 'solid'"),

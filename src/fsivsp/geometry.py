@@ -598,14 +598,18 @@ def _solid_regions(path: Path, solids: list, regions: Any) -> list[str]:
     return media
 
 
-def _name_faces(ngmesh: nm.Mesh) -> None:
+def _name_faces(ngmesh: nm.Mesh, path: Path) -> None:
     """``interface`` on the faces between fluid and solid; ``fluid_wall`` / ``solid_wall`` on the
-    outer faces the CAD file leaves unnamed (netgen calls them ``default``)."""
+    outer faces the CAD file leaves unnamed (netgen calls them ``default``). A face the file names
+    ``interface`` elsewhere is refused."""
     materials = ngmesh.GetRegionNames(codim=0)
     for fd in ngmesh.FaceDescriptors():
         media = {materials[d - 1] for d in (fd.domin, fd.domout) if d > 0}
         if media == {FLUID, SOLID}:
             ngmesh.SetBCName(fd.bc - 1, INTERFACE)
+        elif fd.bcname == INTERFACE:
+            raise GeometryError(f"CAD file {path}: a face named '{INTERFACE}' is not shared by the fluid and the "
+                                f"solid (it borders {' and '.join(sorted(media))} only)")
         elif fd.bcname == "default" and 0 in (fd.domin, fd.domout):
             ngmesh.SetBCName(fd.bc - 1, FLUID_WALL if media == {FLUID} else SOLID_WALL)
 
@@ -616,8 +620,8 @@ def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = No
     longest side). The mesh keeps its OCC geometry (``Curve``, projected refinement).
 
     Each solid is ``fluid`` or ``solid`` by `regions` (keys: solid numbers from 1 in file order,
-    or solid names; values ``fluid`` / ``solid``) or else by its own name. Faces between a fluid
-    and a solid solid become ``interface`` (whatever the file calls them); other outer faces keep
+    or solid names; values ``fluid`` / ``solid``) or else by its own name. Faces shared by the
+    fluid and the solid become ``interface`` (whatever the file calls them); other outer faces keep
     the file's name, else become ``fluid_wall`` / ``solid_wall``; faces between two solids of the
     same medium are inner faces (boundary name ``default``, traction-free). 3D only."""
     dim = _dimension("cad", dim, (3,))
@@ -631,7 +635,7 @@ def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = No
     else:
         h = _positive("maxh", maxh)
     mesh = _mesh(shape, dim, h)
-    _name_faces(mesh.ngmesh)
+    _name_faces(mesh.ngmesh, path)
     if INTERFACE not in mesh.GetBoundaries():
         raise GeometryError(f"CAD file {path}: no face is shared by the fluid and the solid, so there is "
                             f"no '{INTERFACE}' (do they touch?)")
