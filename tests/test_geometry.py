@@ -294,6 +294,11 @@ BAD = [
     ({"kind": "paper_channel", "radius": 1}, "radius", "unknown parameter"),
     ({"kind": "mesh"}, "path", None),
     ({"kind": "mesh", "path": "x.msh", "maxh": 0.1}, "maxh", "not used for kind 'mesh'"),
+    ({"kind": "mesh", "path": 3}, "path", "the path of a .msh, .vol, .vol.gz file, got 3"),
+    ({"kind": "cad", "dim": 3}, "path", "the path of a .step, .stp, .brep, .iges, .igs file, got None"),
+    ({"kind": "cad", "dim": 4, "path": "x.step"}, "dim", "expected 2 or 3 for kind 'cad', got 4"),
+    ({"kind": "cad", "dim": 3, "path": "x.step", "maxh": -1}, "maxh", None),
+    ({"kind": "cad", "dim": 3, "path": "x.step", "size": 1}, "size", "unknown parameter for kind 'cad'"),
 ]
 
 

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from fsivsp.cli import main
-from fsivsp.geometry import FLUID, INTERFACE, SOLID, SOLID_WALL, build_geometry, interface_normal, load_mesh, refined
+from fsivsp.geometry import (FLUID, INTERFACE, SOLID, SOLID_WALL, GeometryError, build_geometry, interface_normal,
+                             load_mesh, refined)
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 STEP = EXAMPLES / "cylinder_in_box.step"
@@ -186,6 +187,34 @@ def test_regions_table_maps_solids(tmp_path):
     assert "fluid_wall" in swapped.GetBoundaries()
 
 
+def disk_in_square(path: Path, named: bool = True) -> Path:
+    """A plane STEP file: a fluid disk of radius 0.25 in the solid unit square, its top edge ``load``."""
+    from netgen.occ import Y, Circle, Glue, Rectangle
+
+    square, disk = Rectangle(1, 1).Face(), Circle((0.5, 0.5), 0.25).Face()
+    square.edges.Max(Y).name = "load"
+    solid = square - disk
+    if named:
+        solid.name, disk.name = SOLID, FLUID
+    Glue([solid, disk]).WriteStep(str(path))
+    return path
+
+
+def test_plane_step_file_is_2d(tmp_path):
+    mesh = build_geometry("cad", 2, 0.2, path=disk_in_square(tmp_path / "disk.step"))
+    assert mesh.dim == 2 and set(mesh.GetMaterials()) == {FLUID, SOLID}
+    assert set(mesh.GetBoundaries()) == {INTERFACE, SOLID_WALL, "load"}
+    fine = refined(mesh, 1, project=True)
+    points = np.array([fine.vertices[v.nr].point for el in fine.Elements(ngs.BND) if el.mat == INTERFACE
+                       for v in el.vertices])
+    assert np.hypot(points[:, 0] - 0.5, points[:, 1] - 0.5) == pytest.approx(0.25, abs=1e-12)
+    unnamed = disk_in_square(tmp_path / "unnamed.step", named=False)
+    mapped = build_geometry("cad", 2, 0.2, path=unnamed, regions={"1": "solid", "2": "fluid"})
+    assert mapped.nv == mesh.nv and set(mapped.GetBoundaries()) == set(mesh.GetBoundaries())
+    with pytest.raises(GeometryError, match=r"^CAD file .*disk.step: no solids \(plane faces: use dim = 2\)$"):
+        build_geometry("cad", 3, 0.2, path=tmp_path / "disk.step")
+
+
 def test_run_on_the_step_example(tmp_path):
     case = tmp_path / "cad.toml"
     case.write_text((EXAMPLES / "cad_3d.toml").read_text()
@@ -310,12 +339,12 @@ CAD_FAULTS = {
     "apart": (lambda p: two_boxes(p, gap=0.5), "", "no face is shared by the fluid and the solid"),
     "unnamed": (lambda p: two_boxes(p, named=False), "", "error: geometry.regions: solid 1 of {path} is neither"),
     "outer-interface": (lambda p: two_boxes(p, outer=INTERFACE), "",
-                        "error: CAD file {path}: a face named 'interface' is not shared by the fluid and the solid"),
+                        "error: CAD file {path}: a boundary named 'interface' is not shared by the fluid and the solid (it borders fluid only)"),
     "unknown-key": (two_boxes, 'regions = { "3" = "fluid" }', "error: geometry.regions.3: no solid of that name or number"),
     "bad-value": (two_boxes, 'regions = { "1" = "water" }', "error: geometry.regions.1: expected 'fluid' or 'solid', got 'water'"),
     "one-medium": (two_boxes, 'regions = { "2" = "fluid" }', "error: geometry.regions: no solid of {path} is 'solid'"),
     "not-a-table": (two_boxes, 'regions = ["1"]', "error: geometry.regions: expected a table"),
-    "dim": (two_boxes, "", "error: geometry.dim: expected 3 for kind 'cad', got 2"),
+    "dim": (two_boxes, "", "error: CAD file {path}: has solids: use dim = 3"),
     "extension": (lambda p: p.with_suffix(".stl"), "", "error: CAD file {path}: unknown extension '.stl'"),
 }
 

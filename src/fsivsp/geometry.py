@@ -12,8 +12,8 @@ curved boundaries; docs/meshes.md describes the file formats):
 - ``fluid_in_solid``, ``solid_in_fluid``: a disk/ball of one medium inside a square/cube of the other;
 - ``fluid_over_solid``: a fluid rectangle/box on top of a solid one (flat interface);
 - ``elastic_tube``: a fluid cylinder inside a solid tube wall (2D: the axial section);
-- ``cad``: the solids of a STEP, BREP or IGES file, named ``fluid`` / ``solid`` in the file or by a
-  ``regions`` table, glued and meshed (the mesh keeps the OCC geometry);
+- ``cad``: the solids (2D: the plane faces) of a STEP, BREP or IGES file, named ``fluid`` /
+  ``solid`` in the file or by a ``regions`` table, glued and meshed;
 - ``load_mesh``: a gmsh ``.msh`` (format 2.2 or 4.x, ASCII or binary, read by meshio; physical
   names as region names) or netgen ``.vol`` file, without geometry (unless a ``.vol`` carries it);
 - ``netgen_mesh``: a geometry-free netgen mesh from points, cells and named facets (used by
@@ -559,86 +559,102 @@ def _silenced():
             os.close(copy)
 
 
-def _read_cad(path: str | Path) -> tuple[Path, list]:
-    """The solids of a STEP, BREP or IGES file (netgen's OCC kernel)."""
+def _read_cad(path: str | Path, dim: int) -> tuple[Path, list]:
+    """The parts of a STEP, BREP or IGES file (netgen's OCC kernel): its solids (3D) or its faces
+    in the plane z = 0 (2D)."""
     path, _ = _existing_file(path, CAD_SUFFIXES, "CAD file")
     try:
         with _silenced():
-            solids = list(OCCGeometry(str(path)).shape.solids)
+            shape = OCCGeometry(str(path)).shape
     except Exception as error:  # noqa: BLE001 - OCC raises bare Exceptions
         raise GeometryError(f"CAD file {path}: cannot read ({_one_line(error)})") from None
-    if not solids:
-        raise GeometryError(f"CAD file {path}: no solids (kind 'cad' meshes 3D solids)")
-    return path, solids
+    solids, faces = list(shape.solids), list(shape.faces)
+    if dim == 3 and not solids:
+        raise GeometryError(f"CAD file {path}: no solids" + (" (plane faces: use dim = 2)" if faces else ""))
+    if dim == 2 and (solids or not faces):
+        raise GeometryError(f"CAD file {path}: " + ("has solids: use dim = 3" if solids else "no faces"))
+    low, high = shape.bounding_box
+    if dim == 2 and max(abs(low[2]), abs(high[2])) > 1e-6 * max(high[i] - low[i] for i in range(2)):
+        raise GeometryError(f"CAD file {path}: a 2D geometry must lie in the plane z = 0")
+    return path, solids if dim == 3 else faces
 
 
-def _solid_regions(path: Path, solids: list, regions: Any) -> list[str]:
-    """``fluid`` or ``solid`` for each solid: ``regions[number]`` (from 1, as a string or an
-    integer), else ``regions[its name]``, else its own name in the file."""
+def _solid_regions(path: Path, parts: list, regions: Any, word: str) -> list[str]:
+    """``fluid`` or ``solid`` for each part (a solid, or a face in 2D, as ``word`` says):
+    ``regions[number]`` (from 1, as a string or an integer), else ``regions[its name]``, else its
+    own name in the file."""
     if regions is None:
         regions = {}
     if not isinstance(regions, dict):
-        raise _fail("regions", "a table mapping solid names or numbers to 'fluid' or 'solid'", regions)
-    names = [solid.name for solid in solids]
-    listing = ", ".join(f"{i} '{name}'" if name else f"{i} (unnamed)" for i, name in enumerate(names, start=1))
+        raise _fail("regions", f"a table mapping {word} names or numbers to 'fluid' or 'solid'", regions)
+    names = [part.name for part in parts]
+    listing = f"{word}s: " + ", ".join(f"{i} '{name}'" if name else f"{i} (unnamed)"
+                                       for i, name in enumerate(names, start=1))
     regions = {str(key): value for key, value in regions.items()}
     for key, value in regions.items():
-        if key not in names and key not in map(str, range(1, len(solids) + 1)):
-            raise GeometryError(f"geometry.regions.{key}: no solid of that name or number in {path} (solids: {listing})")
+        if key not in names and key not in map(str, range(1, len(parts) + 1)):
+            raise GeometryError(f"geometry.regions.{key}: no {word} of that name or number in {path} ({listing})")
         if value not in (FLUID, SOLID):
             raise _fail(f"regions.{key}", f"'{FLUID}' or '{SOLID}'", value)
     media = [regions.get(str(i), regions.get(name, name)) for i, name in enumerate(names, start=1)]
     for i, medium in enumerate(media, start=1):
         if medium not in (FLUID, SOLID):
-            raise GeometryError(f"geometry.regions: solid {i} of {path} is neither '{FLUID}' nor '{SOLID}' "
-                                f"(solids: {listing}); map it, e.g. regions = {{ \"{i}\" = \"{FLUID}\" }}")
+            raise GeometryError(f"geometry.regions: {word} {i} of {path} is neither '{FLUID}' nor '{SOLID}' "
+                                f"({listing}); map it, e.g. regions = {{ \"{i}\" = \"{FLUID}\" }}")
     for medium in (FLUID, SOLID):
         if medium not in media:
-            raise GeometryError(f"geometry.regions: no solid of {path} is '{medium}' (solids: {listing})")
+            raise GeometryError(f"geometry.regions: no {word} of {path} is '{medium}' ({listing})")
     return media
 
 
-def _name_faces(ngmesh: nm.Mesh, path: Path) -> None:
-    """``interface`` on the faces between fluid and solid; ``fluid_wall`` / ``solid_wall`` on the
-    outer faces the CAD file leaves unnamed (netgen calls them ``default``). A face the file names
-    ``interface`` elsewhere is refused."""
+def _boundary_parts(ngmesh: nm.Mesh) -> list[tuple[int, str, int, int]]:
+    """(boundary number, name, domin, domout) of each face (3D) or edge (2D) descriptor."""
+    if ngmesh.dim == 3:
+        return [(fd.bc, fd.bcname, fd.domin, fd.domout) for fd in ngmesh.FaceDescriptors()]
+    return [(ed.edgenr, ed.name, ed.domin, ed.domout) for ed in ngmesh.EdgeDescriptors()]
+
+
+def _name_boundaries(ngmesh: nm.Mesh, path: Path) -> None:
+    """``interface`` on the faces (2D: edges) between fluid and solid; ``fluid_wall`` /
+    ``solid_wall`` on the outer ones the CAD file leaves unnamed (netgen calls them ``default``).
+    A boundary the file names ``interface`` elsewhere is refused."""
     materials = ngmesh.GetRegionNames(codim=0)
-    for fd in ngmesh.FaceDescriptors():
-        media = {materials[d - 1] for d in (fd.domin, fd.domout) if d > 0}
+    for number, name, domin, domout in _boundary_parts(ngmesh):
+        media = {materials[d - 1] for d in (domin, domout) if d > 0}
         if media == {FLUID, SOLID}:
-            ngmesh.SetBCName(fd.bc - 1, INTERFACE)
-        elif fd.bcname == INTERFACE:
-            raise GeometryError(f"CAD file {path}: a face named '{INTERFACE}' is not shared by the fluid and the "
-                                f"solid (it borders {' and '.join(sorted(media))} only)")
-        elif fd.bcname == "default" and 0 in (fd.domin, fd.domout):
-            ngmesh.SetBCName(fd.bc - 1, FLUID_WALL if media == {FLUID} else SOLID_WALL)
+            ngmesh.SetBCName(number - 1, INTERFACE)
+        elif name == INTERFACE:
+            raise GeometryError(f"CAD file {path}: a boundary named '{INTERFACE}' is not shared by the fluid and "
+                                f"the solid (it borders {' and '.join(sorted(media))} only)")
+        elif name == "default" and 0 in (domin, domout):
+            ngmesh.SetBCName(number - 1, FLUID_WALL if media == {FLUID} else SOLID_WALL)
 
 
 def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = None, regions: Any = None) -> ngs.Mesh:
-    """The solids of a STEP (.step, .stp), BREP or IGES file, glued so that the faces they share
-    are meshed conformingly, and meshed with ``maxh`` (default: a tenth of the bounding box's
-    longest side). The mesh keeps its OCC geometry (``Curve``, projected refinement).
+    """The solids (3D) or the faces in the plane z = 0 (2D) of a STEP (.step, .stp), BREP or IGES
+    file, glued so that what they share is meshed conformingly, and meshed with ``maxh`` (default: a
+    tenth of the bounding box's longest side). The mesh keeps its OCC geometry (``Curve``,
+    projected refinement).
 
-    Each solid is ``fluid`` or ``solid`` by `regions` (keys: solid numbers from 1 in file order,
-    or solid names; values ``fluid`` / ``solid``) or else by its own name. Faces shared by the
-    fluid and the solid become ``interface`` (whatever the file calls them); other outer faces keep
-    the file's name, else become ``fluid_wall`` / ``solid_wall``; faces between two solids of the
-    same medium are inner faces (boundary name ``default``, traction-free). 3D only."""
-    dim = _dimension("cad", dim, (3,))
-    path, solids = _read_cad(_path_parameter(path, CAD_SUFFIXES))
-    for solid, medium in zip(solids, _solid_regions(path, solids, regions)):
-        solid.mat(medium)
-    shape = Glue(solids)
-    if maxh is None:
+    Each solid (2D: face) is ``fluid`` or ``solid`` by `regions` (keys: numbers from 1 in file
+    order, or names; values ``fluid`` / ``solid``) or else by its own name. The faces (2D: edges)
+    shared by the fluid and the solid become ``interface`` (whatever the file calls them); other
+    outer ones keep the file's name, else become ``fluid_wall`` / ``solid_wall``; those between two
+    parts of the same medium are inner boundaries (named ``default``, traction-free)."""
+    dim = _dimension("cad", dim)
+    h = None if maxh is None else _positive("maxh", maxh)
+    path, parts = _read_cad(_path_parameter(path, CAD_SUFFIXES), dim)
+    for part, medium in zip(parts, _solid_regions(path, parts, regions, "solid" if dim == 3 else "face")):
+        part.name = medium  # netgen's region name of a solid (3D) or a face (2D)
+    shape = Glue(parts)
+    if h is None:
         low, high = shape.bounding_box
         h = max(high[i] - low[i] for i in range(3)) / 10
-    else:
-        h = _positive("maxh", maxh)
     mesh = _mesh(shape, dim, h)
-    _name_faces(mesh.ngmesh, path)
+    _name_boundaries(mesh.ngmesh, path)
     if INTERFACE not in mesh.GetBoundaries():
-        raise GeometryError(f"CAD file {path}: no face is shared by the fluid and the solid, so there is "
-                            f"no '{INTERFACE}' (do they touch?)")
+        raise GeometryError(f"CAD file {path}: no {'face' if dim == 3 else 'edge'} is shared by the fluid and the "
+                            f"solid, so there is no '{INTERFACE}' (do they touch?)")
     check_regions(mesh)
     return mesh
 
@@ -684,11 +700,11 @@ KINDS: dict[str, dict[str, Any]] = {
                        "interface, fluid_wall, solid_wall or other wall names) or netgen .vol",
     },
     "cad": {
-        "dims": (3,),
+        "dims": (2, 3),
         "maxh": {},
         "parameters": {"path": None, "regions": None},
-        "description": "the solids of a STEP, BREP or IGES file, each fluid or solid by its name or the regions "
-                       "table; maxh defaults to a tenth of the bounding box",
+        "description": "the solids (2D: the faces in the plane z = 0) of a STEP, BREP or IGES file, each fluid "
+                       "or solid by its name or the regions table; maxh defaults to a tenth of the bounding box",
     },
 }
 
