@@ -31,8 +31,8 @@ from numbers import Real
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-import netgen.meshing as nm
 import ngsolve as ngs
+import netgen.meshing as nm
 import numpy as np
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
@@ -69,11 +69,11 @@ def without_geometry(mesh: ngs.Mesh) -> ngs.Mesh:
     if old.dim not in (2, 3):
         raise GeometryError("geometry-free refinement is implemented for 2D and 3D meshes only")
     points = np.array([p.p for p in old.Points()], dtype=float)
-    cells = old.Elements2D() if old.dim == 2 else old.Elements3D()
-    facets = old.Elements1D() if old.dim == 2 else old.Elements2D()
     if old.dim == 2:
+        cells, facets = old.Elements2D(), old.Elements1D()
         boundaries = [(name, 0, 0) for name in old.GetRegionNames(codim=1)]
     else:
+        cells, facets = old.Elements3D(), old.Elements2D()
         boundaries = [(fd.bcname, fd.domin, fd.domout) for fd in old.FaceDescriptors()]
     return netgen_mesh(old.dim, points, old.GetRegionNames(codim=0),
                        [(el.index, [v.nr - 1 for v in el.vertices]) for el in cells], boundaries,
