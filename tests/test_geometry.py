@@ -294,6 +294,11 @@ BAD = [
     ({"kind": "paper_channel", "radius": 1}, "radius", "unknown parameter"),
     ({"kind": "mesh"}, "path", None),
     ({"kind": "mesh", "path": "x.msh", "maxh": 0.1}, "maxh", "not used for kind 'mesh'"),
+    ({"kind": "mesh", "path": 3}, "path", "the path of a .msh, .vol, .vol.gz file, got 3"),
+    ({"kind": "cad", "dim": 3}, "path", "the path of a .step, .stp, .brep, .iges, .igs file, got None"),
+    ({"kind": "cad", "dim": 4, "path": "x.step"}, "dim", "expected 2 or 3 for kind 'cad', got 4"),
+    ({"kind": "cad", "dim": 3, "path": "x.step", "maxh": -1}, "maxh", None),
+    ({"kind": "cad", "dim": 3, "path": "x.step", "size": 1}, "size", "unknown parameter for kind 'cad'"),
 ]
 
 
@@ -320,10 +325,10 @@ def test_builders_validate_directly():
 
 def test_kinds_describe_the_builders():
     assert set(KINDS) == {"paper_channel", "fluid_in_solid", "solid_in_fluid", "fluid_over_solid",
-                          "elastic_tube", "mesh"}
+                          "elastic_tube", "mesh", "cad"}
     for kind, spec in KINDS.items():
         assert set(spec) >= {"dims", "maxh", "parameters", "description"}
-        assert all(dim in spec["maxh"] for dim in spec["dims"]) or kind == "mesh"
+        assert all(dim in spec["maxh"] for dim in spec["dims"]) or kind in ("mesh", "cad")
         builder = getattr(g, kind, None)
         if kind == "mesh":
             continue
@@ -442,15 +447,17 @@ def test_vol_round_trip_keeps_geometry(tmp_path, dim):
 
 GMSH_FAULTS = {
     "missing": (None, "no such file"),
-    "v4.msh": ("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n", "gmsh format '4.1 0' is not supported"),
-    "binary.msh": ("$MeshFormat\n2.2 1 8\n$EndMeshFormat\n", "is not supported"),
-    "nothing.msh": ("hello\n", "not a gmsh mesh"),
+    "v4.msh": ("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n", "cannot read as a gmsh mesh (ReadError: $Element section"),
+    "binary.msh": ("$MeshFormat\n2.2 1 8\n$EndMeshFormat\n", "cannot read as a gmsh mesh"),
+    "nothing.msh": ("hello\n", "cannot read as a gmsh mesh (ReadError)"),
     "unnamed.msh": (TWO_TRIANGLES.split("$PhysicalNames")[0] + TWO_TRIANGLES.split("$EndPhysicalNames\n")[1],
-                    "no $PhysicalNames section"),
+                    "no physical names; name the physical groups 'fluid', 'solid', 'interface'"),
     "noname.msh": (TWO_TRIANGLES.replace('1 3 "interface"\n', "").replace("\n5\n1 1", "\n4\n1 1"),
-                   "physical group 3 has no entry in $PhysicalNames"),
+                   "physical group 3 of dimension 1 has no name"),
     "nointerface.msh": (TWO_TRIANGLES.replace('"interface"', '"wall"'), "no boundary region named 'interface'"),
-    "nofluid.msh": (TWO_TRIANGLES.replace('"fluid"', '"water"'), "no volume region named 'fluid'"),
+    "water.msh": (TWO_TRIANGLES.replace('"fluid"', '"water"'), "volume region 'water' is neither 'fluid' nor 'solid'"),
+    "nofluid.msh": (TWO_TRIANGLES.replace("7 2 2 4 5", "7 2 2 5 5").replace("5 1 2 3 3 1 3\n", "")
+                    .replace("\n7\n1 1", "\n6\n1 1"), "no volume region named 'fluid'"),
     "truncated.msh": (TWO_TRIANGLES[: TWO_TRIANGLES.index("5 1 2 3")], "cannot read"),
     "mesh.stl": ("solid x\n", "unknown extension '.stl'"),
     "mesh": ("", "unknown extension"),

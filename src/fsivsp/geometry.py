@@ -4,14 +4,20 @@ Every mesh fsivsp works on has the volume regions ``fluid`` and ``solid`` and th
 boundary regions ``interface`` (Γ), ``fluid_wall`` (Γ_F) and ``solid_wall`` (Γ_S);
 Γ_F or Γ_S may be empty (Fig. 1 of the paper).
 
-Builders (all return an ``ngsolve.Mesh`` that keeps its OCC geometry, so ``mesh.Curve(order)``
-and ``refined(mesh, levels, project=True)`` follow the true curved boundaries):
+Builders (all but ``load_mesh`` and ``netgen_mesh`` return an ``ngsolve.Mesh`` that keeps its OCC
+geometry, so ``mesh.Curve(order)`` and ``refined(mesh, levels, project=True)`` follow the true
+curved boundaries; docs/meshes.md describes the file formats):
 
 - ``paper_channel``: the paper's 2D channel with a fluid disk (Section 5.3);
 - ``fluid_in_solid``, ``solid_in_fluid``: a disk/ball of one medium inside a square/cube of the other;
 - ``fluid_over_solid``: a fluid rectangle/box on top of a solid one (flat interface);
 - ``elastic_tube``: a fluid cylinder inside a solid tube wall (2D: the axial section);
-- ``load_mesh``: a gmsh ``.msh`` (version 2 ASCII, physical names) or netgen ``.vol`` file;
+- ``cad``: the solids (2D: the plane faces) of a STEP, BREP or IGES file, named ``fluid`` /
+  ``solid`` in the file or by a ``regions`` table, glued and meshed;
+- ``load_mesh``: a gmsh ``.msh`` (format 2.2 or 4.x, ASCII or binary, read by meshio; physical
+  names as region names) or netgen ``.vol`` file, without geometry (unless a ``.vol`` carries it);
+- ``netgen_mesh``: a geometry-free netgen mesh from points, cells and named facets (used by
+  ``load_mesh`` and ``without_geometry``);
 - ``build_geometry(kind, dim, maxh, **parameters)``: dispatch by name, with validation (``KINDS``).
 """
 from __future__ import annotations
@@ -19,12 +25,15 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import os
+import sys
 from numbers import Real
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import ngsolve as ngs
 import netgen.meshing as nm
+import numpy as np
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
 FLUID, SOLID = "fluid", "solid"
@@ -57,40 +66,46 @@ def without_geometry(mesh: ngs.Mesh) -> ngs.Mesh:
     """A copy of a 2D or 3D mesh that has forgotten its geometry, so that refinement puts the new
     nodes at the edge midpoints instead of projecting them onto curved boundaries."""
     old = mesh.ngmesh
-    if old.dim == 3:
-        return _without_geometry_3d(old)
-    if old.dim != 2:
+    if old.dim not in (2, 3):
         raise GeometryError("geometry-free refinement is implemented for 2D and 3D meshes only")
-    new = nm.Mesh(dim=2)
-    points = [new.Add(nm.MeshPoint(nm.Pnt(*p.p))) for p in old.Points()]
-    for index, name in enumerate(old.GetRegionNames(codim=0), start=1):
-        new.SetMaterial(index, name)
-    for index, name in enumerate(old.GetRegionNames(codim=1)):
-        new.SetBCName(index, name)
-    for el in old.Elements2D():
-        new.Add(nm.Element2D(el.index, [points[v.nr - 1] for v in el.vertices]))
-    for el in old.Elements1D():
-        new.Add(nm.Element1D([points[v.nr - 1] for v in el.vertices], index=el.index))
-    return ngs.Mesh(new)
+    points = np.array([p.p for p in old.Points()], dtype=float)
+    if old.dim == 2:
+        cells, facets = old.Elements2D(), old.Elements1D()
+        boundaries = [(name, 0, 0) for name in old.GetRegionNames(codim=1)]
+    else:
+        cells, facets = old.Elements3D(), old.Elements2D()
+        boundaries = [(fd.bcname, fd.domin, fd.domout) for fd in old.FaceDescriptors()]
+    return netgen_mesh(old.dim, points, old.GetRegionNames(codim=0),
+                       [(el.index, [v.nr - 1 for v in el.vertices]) for el in cells], boundaries,
+                       [(el.index, [v.nr - 1 for v in el.vertices]) for el in facets])
 
 
-def _without_geometry_3d(old: nm.Mesh) -> ngs.Mesh:
-    """`without_geometry` for a tetrahedral mesh: points, face descriptors (with their
-    boundary names and adjacent domains), surface and volume elements."""
-    new = nm.Mesh(dim=3)
-    points = [new.Add(nm.MeshPoint(nm.Pnt(*p.p))) for p in old.Points()]
-    for index, name in enumerate(old.GetRegionNames(codim=0), start=1):
-        new.SetMaterial(index, name)
-    descriptors = list(old.FaceDescriptors())
-    for fd in descriptors:
-        new.Add(nm.FaceDescriptor(surfnr=fd.surfnr, domin=fd.domin, domout=fd.domout, bc=fd.bc))
-    for fd in descriptors:
-        new.SetBCName(fd.bc - 1, fd.bcname)
-    for el in old.Elements2D():
-        new.Add(nm.Element2D(el.index, [points[v.nr - 1] for v in el.vertices]))
-    for el in old.Elements3D():
-        new.Add(nm.Element3D(el.index, [points[v.nr - 1] for v in el.vertices]))
-    return ngs.Mesh(new)
+def netgen_mesh(dim: int, points: np.ndarray, materials: Sequence[str], cells: Sequence[tuple[int, Sequence[int]]],
+                boundaries: Sequence[tuple[str, int, int]], facets: Sequence[tuple[int, Sequence[int]]]) -> ngs.Mesh:
+    """A geometry-free netgen mesh of triangles (``dim`` 2) or tetrahedra (3).
+
+    ``points``: an (n, 3) array; ``materials``: the volume region names, numbered from 1;
+    ``cells``: (material number, vertex numbers from 0); ``boundaries``: (name, domin, domout) of
+    each boundary part, numbered from 1 (domin/domout: the material numbers on either side, 0 for
+    none; only 3D uses them); ``facets``: (boundary number, vertex numbers from 0), each oriented
+    with its normal out of domin (3D: (p1 - p0) × (p2 - p0); 2D: the cell on the left of p0 → p1)."""
+    mesh = nm.Mesh(dim=dim)
+    vertices = [mesh.Add(nm.MeshPoint(nm.Pnt(*p))) for p in points]
+    for number, name in enumerate(materials, start=1):
+        mesh.SetMaterial(number, name)
+    for number, (name, domin, domout) in enumerate(boundaries, start=1):
+        if dim == 3:
+            mesh.Add(nm.FaceDescriptor(surfnr=number, domin=domin, domout=domout, bc=number))
+        mesh.SetBCName(number - 1, name)
+    cell_type = nm.Element2D if dim == 2 else nm.Element3D
+    for number, corners in cells:
+        mesh.Add(cell_type(number, [vertices[v] for v in corners]))
+    for number, corners in facets:
+        if dim == 2:
+            mesh.Add(nm.Element1D([vertices[v] for v in corners], index=number))
+        else:
+            mesh.Add(nm.Element2D(number, [vertices[v] for v in corners]))
+    return ngs.Mesh(mesh)
 
 
 def refined(mesh: ngs.Mesh, levels: int, project: bool = True) -> ngs.Mesh:
@@ -334,66 +349,313 @@ def elastic_tube(dim: int = 2, maxh: float | None = None, *, radius: float = 0.5
 # ---------------------------------------------------------------------------------------------
 
 MESH_SUFFIXES = (".msh", ".vol", ".vol.gz")
+CAD_SUFFIXES = (".step", ".stp", ".brep", ".iges", ".igs")
+
+#: meshio cell type → (dimension, corner count); second-order cells keep only their corners.
+GMSH_CELLS = {"line": (1, 2), "line3": (1, 2), "triangle": (2, 3), "triangle6": (2, 3),
+              "tetra": (3, 4), "tetra10": (3, 4)}
+IGNORED_CELLS = {"vertex"}  # physical points
+NAMES_HINT = f"name the physical groups '{FLUID}', '{SOLID}', '{INTERFACE}' (and '{FLUID_WALL}', '{SOLID_WALL}')"
 
 
-def _gmsh_header(path: Path) -> None:
-    """Refuse what `netgen.read_gmsh.ReadGmsh` cannot read (or would read without names):
-    formats other than version 2 ASCII, files without ``$Elements`` or ``$PhysicalNames``."""
+def _existing_file(path: str | Path, suffixes: Sequence[str], label: str) -> tuple[Path, str]:
+    """The path and its (lower-case) suffix, if it has one of ``suffixes`` and is a file."""
+    path = Path(path)
+    suffix = next((s for s in suffixes if path.name.lower().endswith(s)), None)
+    if suffix is None:
+        raise GeometryError(f"{label} {path}: unknown extension '{path.suffix}' (expected one of {', '.join(suffixes)})")
+    if not path.is_file():
+        raise GeometryError(f"{label} {path}: no such file")
+    return path, suffix
+
+
+def _path_parameter(path: Any, suffixes: Sequence[str]) -> str | Path:
+    if not isinstance(path, (str, Path)) or not str(path):
+        raise _fail("path", f"the path of a {', '.join(suffixes)} file", path)
+    return path
+
+
+def _one_line(error: BaseException) -> str:
+    """A reader's exception as one line: its type and message."""
+    return " ".join(f"{type(error).__name__}: {error}".split()).removesuffix(":")
+
+
+def _read_gmsh(path: Path):
+    """The file as a ``meshio.Mesh`` (gmsh 2.2, 4.0 or 4.1, ASCII or binary)."""
+    import warnings
+
+    import meshio
+
     try:
-        with path.open("r", errors="replace") as f:
-            lines = [line.strip() for line in f]
-    except (OSError, UnicodeError) as error:
-        raise GeometryError(f"mesh file {path}: cannot read ({error})") from None
-    if "$MeshFormat" not in lines:
-        raise GeometryError(f"mesh file {path}: not a gmsh mesh (no $MeshFormat section)")
-    start = lines.index("$MeshFormat") + 1
-    header = lines[start].split() if start < len(lines) else []
-    if len(header) < 2 or not header[0].startswith("2") or header[1] != "0":
-        version = " ".join(header[:2]) or "?"
-        raise GeometryError(f"mesh file {path}: gmsh format '{version}' is not supported, "
-                            "save it as version 2 ASCII (gmsh -format msh2)")
-    if "$Elements" not in lines:
-        raise GeometryError(f"mesh file {path}: no $Elements section")
-    if "$PhysicalNames" not in lines:
-        raise GeometryError(f"mesh file {path}: no $PhysicalNames section; name the physical groups "
-                            f"'{FLUID}', '{SOLID}', '{INTERFACE}' (and '{FLUID_WALL}', '{SOLID_WALL}')")
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")
+            return meshio.gmsh.read(str(path))  # not meshio.read: that exits on a ReadError
+    except Exception as error:  # noqa: BLE001 - meshio raises ReadError, KeyError, struct.error, ...
+        raise GeometryError(f"mesh file {path}: cannot read as a gmsh mesh ({_one_line(error)})") from None
+
+
+def _gmsh_blocks(msh, path: Path) -> tuple[int, list[tuple[int, np.ndarray, list[str]]]]:
+    """The mesh dimension and, per cell block of dimension dim or dim - 1, (dimension, corner
+    numbers, physical name of each cell)."""
+    unknown = sorted({block.type for block in msh.cells} - set(GMSH_CELLS) - IGNORED_CELLS)
+    if unknown:
+        raise GeometryError(f"mesh file {path}: cells of type {', '.join(unknown)} are not supported "
+                            "(expected triangles and lines in 2D, tetrahedra and triangles in 3D)")
+    tags = msh.cell_data.get("gmsh:physical")
+    if not msh.field_data or tags is None:
+        raise GeometryError(f"mesh file {path}: no physical names; {NAMES_HINT}")
+    names = {(int(dim), int(tag)): name for name, (tag, dim) in msh.field_data.items()}
+    blocks = [(GMSH_CELLS[b.type], b.data, t) for b, t in zip(msh.cells, tags) if b.type in GMSH_CELLS]
+    dim = max((d for (d, _), _, _ in blocks), default=0)
+    if dim not in (2, 3):
+        raise GeometryError(f"mesh file {path}: no triangles or tetrahedra")
+    result = []
+    for (d, corners), data, block_tags in blocks:
+        if d < dim - 1:
+            continue
+        missing = sorted({int(t) for t in block_tags if (d, int(t)) not in names})
+        if missing:
+            raise GeometryError(f"mesh file {path}: physical group {missing[0]} of dimension {d} has no name; {NAMES_HINT}")
+        result.append((d, data[:, :corners], [names[d, int(t)] for t in block_tags]))
+    return dim, result
+
+
+def _coincident_vertices(points: np.ndarray, path: Path) -> None:
+    """Refuse distinct vertices at one place: a fluid and a solid meshed separately."""
+    from scipy.spatial import cKDTree
+
+    size = float(np.ptp(points, axis=0).max()) or 1.0
+    pairs = cKDTree(points).query_pairs(1e-10 * size, output_type="ndarray")
+    if len(pairs):
+        where = tuple(round(float(c), 6) for c in points[pairs[0, 0]])
+        raise GeometryError(f"mesh file {path}: {len(pairs)} pairs of coincident vertices, e.g. at {where}; the "
+                            "interface is not conforming (mesh the fluid and solid together so they share its nodes)")
+
+
+def _facet_neighbours(cells: list[list[int]]) -> dict[tuple[int, ...], list[tuple[int, int]]]:
+    """Each facet (sorted vertex numbers) → its cells as (cell number, the cell's vertex opposite the facet)."""
+    neighbours: dict[tuple[int, ...], list[tuple[int, int]]] = {}
+    for number, cell in enumerate(cells):
+        for k, opposite in enumerate(cell):
+            neighbours.setdefault(tuple(sorted(cell[:k] + cell[k + 1:])), []).append((number, opposite))
+    return neighbours
+
+
+def _outward(points: np.ndarray, facet: list[int], opposite: int) -> list[int]:
+    """The facet's vertices ordered so that its normal points away from ``opposite`` (see `netgen_mesh`)."""
+    edges = [points[v, : len(facet)] - points[facet[0], : len(facet)] for v in (*facet[1:], opposite)]
+    inward = np.linalg.det(np.array(edges))
+    return facet if (inward > 0) == (len(facet) == 2) else facet[::-1]
+
+
+def _gmsh_boundaries(path: Path, points: np.ndarray, cells: list[list[int]], materials: list[str],
+                     regions: list[int], facets: list[tuple[str, list[int]]]):
+    """Boundary parts (name, domin, domout) and the facets oriented out of domin, for `netgen_mesh`;
+    refuses a facet bordering no cell and an interface facet not between a fluid and a solid cell."""
+    neighbours = _facet_neighbours(cells)
+    parts: dict[tuple[str, int, int], int] = {}
+    oriented = []
+    for name, facet in facets:
+        sides = sorted(neighbours.get(tuple(sorted(facet)), []), key=lambda side: regions[side[0]])
+        media = [materials[regions[c] - 1] for c, _ in sides]
+        if not sides or (name == INTERFACE and media != [FLUID, SOLID] and media != [SOLID, FLUID]):
+            where = tuple(round(float(c), 6) for c in points[facet].mean(axis=0))
+            found = " and ".join(f"a {medium} cell" for medium in media) or "no cell"
+            raise GeometryError(f"mesh file {path}: a facet of '{name}' at {where} borders {found}"
+                                + (" (non-conforming interface)" if name == INTERFACE else ""))
+        domains = [regions[c] for c, _ in sides] + [0]
+        number = parts.setdefault((name, domains[0], domains[1]), len(parts) + 1)
+        oriented.append((number, _outward(points, facet, sides[0][1])))
+    _unnamed_facets(path, neighbours, {tuple(sorted(facet)) for _, facet in facets}, regions)
+    return list(parts), oriented
+
+
+def _unnamed_facets(path: Path, neighbours: dict, named: set, regions: list[int]) -> None:
+    """Refuse outer facets and fluid–solid facets that are in no physical group."""
+    unnamed = [sides for key, sides in neighbours.items()
+               if key not in named and (len(sides) == 1 or regions[sides[0][0]] != regions[sides[1][0]])]
+    inner = sum(len(sides) == 2 for sides in unnamed)
+    if inner:
+        raise GeometryError(f"mesh file {path}: {inner} facets between fluid and solid cells are not in the "
+                            f"physical group '{INTERFACE}'")
+    if unnamed:
+        raise GeometryError(f"mesh file {path}: {len(unnamed)} outer facets are in no physical group "
+                            f"(e.g. '{FLUID_WALL}' or '{SOLID_WALL}')")
+
+
+def _load_gmsh(path: Path) -> ngs.Mesh:
+    """A gmsh mesh read by meshio, as a geometry-free netgen mesh (see `load_mesh`)."""
+    msh = _read_gmsh(path)
+    dim, blocks = _gmsh_blocks(msh, path)
+    cells = [(name, c) for d, data, names in blocks if d == dim for name, c in zip(names, data)]
+    facets = [(name, c) for d, data, names in blocks if d < dim for name, c in zip(names, data)]
+    materials = list(dict.fromkeys(name for name, _ in cells))
+    strange = [name for name in materials if name not in (FLUID, SOLID)]
+    if strange:
+        raise GeometryError(f"mesh file {path}: volume region '{strange[0]}' is neither '{FLUID}' nor '{SOLID}'")
+    used = np.unique(np.concatenate([c for _, c in cells]))
+    number = np.full(len(msh.points), -1)
+    number[used] = np.arange(len(used))  # mid-edge nodes of second-order cells are dropped
+    points = np.zeros((len(used), 3))
+    points[:, : msh.points.shape[1]] = msh.points[used]
+    if dim == 2 and np.abs(points[:, 2]).max() > 0:
+        raise GeometryError(f"mesh file {path}: a 2D mesh must lie in the plane z = 0")
+    _coincident_vertices(points, path)
+    corners = [number[c].tolist() for _, c in cells]
+    regions = [materials.index(name) + 1 for name, _ in cells]
+    boundaries, oriented = _gmsh_boundaries(path, points, corners, materials, regions,
+                                            [(name, number[c].tolist()) for name, c in facets])
+    return netgen_mesh(dim, points, materials, list(zip(regions, corners)), boundaries, oriented)
 
 
 def load_mesh(path: str | Path) -> ngs.Mesh:
-    """A mesh from a file: gmsh ``.msh`` (version 2 ASCII; the physical names become the region
-    names) or netgen ``.vol`` / ``.vol.gz``. The mesh must have the volume regions ``fluid`` and
-    ``solid`` and the boundary region ``interface`` (`check_regions`); anything else is a
-    `GeometryError` naming the file. A gmsh mesh has no geometry (refinement splits edges at their midpoints,
-    ``Curve`` changes nothing); a ``.vol`` file saved from a mesh of an OCC geometry
-    (``mesh.ngmesh.Save``) carries that geometry along."""
-    path = Path(path)
-    name = path.name.lower()
-    suffix = next((s for s in MESH_SUFFIXES if name.endswith(s)), None)
-    if suffix is None:
-        raise GeometryError(f"mesh file {path}: unknown extension '{path.suffix}' "
-                            f"(expected one of {', '.join(MESH_SUFFIXES)})")
-    if not path.is_file():
-        raise GeometryError(f"mesh file {path}: no such file")
-    try:
-        if suffix == ".msh":
-            _gmsh_header(path)
-            from netgen.read_gmsh import ReadGmsh
+    """A mesh from a file: gmsh ``.msh`` (format 2.2, 4.0 or 4.1, ASCII or binary, read by meshio;
+    the physical names become the region names) or netgen ``.vol`` / ``.vol.gz``.
 
-            with contextlib.redirect_stdout(io.StringIO()):  # ReadGmsh prints a warning about physical names
-                mesh = ngs.Mesh(ReadGmsh(str(path)))
-        else:
+    The mesh must have the volume regions ``fluid`` and ``solid`` and the boundary region
+    ``interface`` (`check_regions`); anything else is a one-line `GeometryError` naming the file.
+    A gmsh mesh is 2D (triangles; boundary lines) or 3D (tetrahedra; boundary triangles), every
+    cell in the physical group ``fluid`` or ``solid``, every outer facet in a named group (walls:
+    ``fluid_wall``, ``solid_wall`` or other names), every fluid–solid facet in ``interface``, and the
+    fluid and solid share their interface nodes (no coincident vertices). Second-order cells
+    (triangle6, tetra10) become straight cells on their corners: the mid-edge nodes are dropped.
+    A gmsh mesh has no geometry (refinement splits edges at their midpoints, ``Curve`` changes
+    nothing); a ``.vol`` file saved from a mesh of an OCC geometry (``mesh.ngmesh.Save``) carries
+    that geometry along."""
+    path, suffix = _existing_file(path, MESH_SUFFIXES, "mesh file")
+    if suffix == ".msh":
+        mesh = _load_gmsh(path)
+    else:
+        try:
             mesh = ngs.Mesh(str(path))
-    except GeometryError:
-        raise
-    except KeyError as error:
-        raise GeometryError(f"mesh file {path}: physical group {error} has no entry in $PhysicalNames") from None
-    except Exception as error:  # noqa: BLE001 - netgen raises bare Exceptions and IndexErrors
-        detail = " ".join(str(error).split()) or type(error).__name__
-        raise GeometryError(f"mesh file {path}: cannot read ({detail})") from None
+        except Exception as error:  # noqa: BLE001 - netgen raises bare Exceptions
+            raise GeometryError(f"mesh file {path}: cannot read ({_one_line(error)})") from None
     try:
         check_regions(mesh)
     except GeometryError as error:
         raise GeometryError(f"mesh file {path}: {str(error).removeprefix('mesh: ')}") from None
+    return mesh
+
+
+# ---------------------------------------------------------------------------------------------
+# CAD files
+# ---------------------------------------------------------------------------------------------
+
+@contextlib.contextmanager
+def _silenced():
+    """Send what C++ code prints to stdout and stderr (OCC's parser messages) to /dev/null."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+
+
+def _read_cad(path: str | Path, dim: int) -> tuple[Path, list]:
+    """The parts of a STEP, BREP or IGES file (netgen's OCC kernel): its solids (3D) or its faces
+    in the plane z = 0 (2D)."""
+    path, _ = _existing_file(path, CAD_SUFFIXES, "CAD file")
+    try:
+        with _silenced():
+            shape = OCCGeometry(str(path)).shape
+    except Exception as error:  # noqa: BLE001 - OCC raises bare Exceptions
+        raise GeometryError(f"CAD file {path}: cannot read ({_one_line(error)})") from None
+    solids, faces = list(shape.solids), list(shape.faces)
+    if dim == 3 and not solids:
+        raise GeometryError(f"CAD file {path}: no solids" + (" (plane faces: use dim = 2)" if faces else ""))
+    if dim == 2 and (solids or not faces):
+        raise GeometryError(f"CAD file {path}: " + ("has solids: use dim = 3" if solids else "no faces"))
+    low, high = shape.bounding_box
+    if dim == 2 and max(abs(low[2]), abs(high[2])) > 1e-6 * max(high[i] - low[i] for i in range(2)):
+        raise GeometryError(f"CAD file {path}: a 2D geometry must lie in the plane z = 0")
+    return path, solids if dim == 3 else faces
+
+
+def _solid_regions(path: Path, parts: list, regions: Any, word: str) -> list[str]:
+    """``fluid`` or ``solid`` for each part (a solid, or a face in 2D, as ``word`` says):
+    ``regions[number]`` (from 1, as a string or an integer), else ``regions[its name]``, else its
+    own name in the file."""
+    if regions is None:
+        regions = {}
+    if not isinstance(regions, dict):
+        raise _fail("regions", f"a table mapping {word} names or numbers to 'fluid' or 'solid'", regions)
+    names = [part.name for part in parts]
+    listing = f"{word}s: " + ", ".join(f"{i} '{name}'" if name else f"{i} (unnamed)"
+                                       for i, name in enumerate(names, start=1))
+    regions = {str(key): value for key, value in regions.items()}
+    for key, value in regions.items():
+        if key not in names and key not in map(str, range(1, len(parts) + 1)):
+            raise GeometryError(f"geometry.regions.{key}: no {word} of that name or number in {path} ({listing})")
+        if value not in (FLUID, SOLID):
+            raise _fail(f"regions.{key}", f"'{FLUID}' or '{SOLID}'", value)
+    media = [regions.get(str(i), regions.get(name, name)) for i, name in enumerate(names, start=1)]
+    for i, medium in enumerate(media, start=1):
+        if medium not in (FLUID, SOLID):
+            raise GeometryError(f"geometry.regions: {word} {i} of {path} is neither '{FLUID}' nor '{SOLID}' "
+                                f"({listing}); map it, e.g. regions = {{ \"{i}\" = \"{FLUID}\" }}")
+    for medium in (FLUID, SOLID):
+        if medium not in media:
+            raise GeometryError(f"geometry.regions: no {word} of {path} is '{medium}' ({listing})")
+    return media
+
+
+def _boundary_parts(ngmesh: nm.Mesh) -> list[tuple[int, str, int, int]]:
+    """(boundary number, name, domin, domout) of each face (3D) or edge (2D) descriptor."""
+    if ngmesh.dim == 3:
+        return [(fd.bc, fd.bcname, fd.domin, fd.domout) for fd in ngmesh.FaceDescriptors()]
+    return [(ed.edgenr, ed.name, ed.domin, ed.domout) for ed in ngmesh.EdgeDescriptors()]
+
+
+def _name_boundaries(ngmesh: nm.Mesh, path: Path) -> None:
+    """``interface`` on the faces (2D: edges) between fluid and solid; ``fluid_wall`` /
+    ``solid_wall`` on the outer ones the CAD file leaves unnamed (netgen calls them ``default``).
+    A boundary the file names ``interface`` elsewhere is refused."""
+    materials = ngmesh.GetRegionNames(codim=0)
+    for number, name, domin, domout in _boundary_parts(ngmesh):
+        media = {materials[d - 1] for d in (domin, domout) if d > 0}
+        if media == {FLUID, SOLID}:
+            ngmesh.SetBCName(number - 1, INTERFACE)
+        elif name == INTERFACE:
+            raise GeometryError(f"CAD file {path}: a boundary named '{INTERFACE}' is not shared by the fluid and "
+                                f"the solid (it borders {' and '.join(sorted(media))} only)")
+        elif name == "default" and 0 in (domin, domout):
+            ngmesh.SetBCName(number - 1, FLUID_WALL if media == {FLUID} else SOLID_WALL)
+
+
+def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = None, regions: Any = None) -> ngs.Mesh:
+    """The solids (3D) or the faces in the plane z = 0 (2D) of a STEP (.step, .stp), BREP or IGES
+    file, glued so that what they share is meshed conformingly, and meshed with ``maxh`` (default: a
+    tenth of the bounding box's longest side). The mesh keeps its OCC geometry (``Curve``,
+    projected refinement).
+
+    Each solid (2D: face) is ``fluid`` or ``solid`` by `regions` (keys: numbers from 1 in file
+    order, or names; values ``fluid`` / ``solid``) or else by its own name. The faces (2D: edges)
+    shared by the fluid and the solid become ``interface`` (whatever the file calls them); other
+    outer ones keep the file's name, else become ``fluid_wall`` / ``solid_wall``; those between two
+    parts of the same medium are inner boundaries (named ``default``, traction-free)."""
+    dim = _dimension("cad", dim)
+    h = None if maxh is None else _positive("maxh", maxh)
+    path, parts = _read_cad(_path_parameter(path, CAD_SUFFIXES), dim)
+    for part, medium in zip(parts, _solid_regions(path, parts, regions, "solid" if dim == 3 else "face")):
+        part.name = medium  # netgen's region name of a solid (3D) or a face (2D)
+    shape = Glue(parts)
+    if h is None:
+        low, high = shape.bounding_box
+        h = max(high[i] - low[i] for i in range(3)) / 10
+    mesh = _mesh(shape, dim, h)
+    _name_boundaries(mesh.ngmesh, path)
+    if INTERFACE not in mesh.GetBoundaries():
+        raise GeometryError(f"CAD file {path}: no {'face' if dim == 3 else 'edge'} is shared by the fluid and the "
+                            f"solid, so there is no '{INTERFACE}' (do they touch?)")
+    check_regions(mesh)
     return mesh
 
 
@@ -434,8 +696,15 @@ KINDS: dict[str, dict[str, Any]] = {
         "dims": (2, 3),
         "maxh": {},
         "parameters": {"path": None},
-        "description": "a mesh file: gmsh .msh (version 2 ASCII, physical names fluid, solid, interface, "
-                       "fluid_wall, solid_wall) or netgen .vol",
+        "description": "a mesh file: gmsh .msh (format 2.2 or 4.x, ASCII or binary; physical names fluid, solid, "
+                       "interface, fluid_wall, solid_wall or other wall names) or netgen .vol",
+    },
+    "cad": {
+        "dims": (2, 3),
+        "maxh": {},
+        "parameters": {"path": None, "regions": None},
+        "description": "the solids (2D: the faces in the plane z = 0) of a STEP, BREP or IGES file, each fluid "
+                       "or solid by its name or the regions table; maxh defaults to a tenth of the bounding box",
     },
 }
 
@@ -444,6 +713,7 @@ _BUILDERS: dict[str, Callable[..., ngs.Mesh]] = {
     "solid_in_fluid": solid_in_fluid,
     "fluid_over_solid": fluid_over_solid,
     "elastic_tube": elastic_tube,
+    "cad": cad,
 }
 
 
@@ -463,9 +733,7 @@ def build_geometry(kind: str, dim: int = 2, maxh: float | None = None, **paramet
     if kind == "mesh":
         if maxh is not None:
             raise GeometryError(f"geometry.maxh: not used for kind 'mesh' (the file fixes the mesh), got {maxh!r}")
-        path = parameters.get("path")
-        if not isinstance(path, (str, Path)) or not str(path):
-            raise _fail("path", "the path of a .msh or .vol file", path)
+        path = _path_parameter(parameters.get("path"), MESH_SUFFIXES)
         mesh = load_mesh(path)
         if mesh.dim != dim:
             raise GeometryError(f"geometry.dim: expected {dim}, but mesh file {path} is {mesh.dim}D")

@@ -1,0 +1,381 @@
+"""Mesh files written by meshio (gmsh 2.2 and 4.1, ASCII and binary) and CAD files (kind 'cad'):
+round trips, studies equal to netgen's own format, the STEP example, and one-line errors."""
+import importlib.util
+import json
+import math
+from functools import lru_cache
+from pathlib import Path
+
+import meshio
+import ngsolve as ngs
+import numpy as np
+import pytest
+
+from fsivsp.cli import main
+from fsivsp.geometry import (FLUID, INTERFACE, SOLID, SOLID_WALL, GeometryError, build_geometry, interface_normal,
+                             load_mesh, refined)
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+STEP = EXAMPLES / "cylinder_in_box.step"
+FORMATS = {"41-ascii": ("gmsh", False), "41-binary": ("gmsh", True), "22-ascii": ("gmsh22", False)}
+STUDIES = {2: ("fluid_over_solid_2d.toml", 'kind = "fluid_over_solid"\ndim = 2\nmaxh = 0.15'),
+           3: ("fluid_in_solid_3d.toml", 'kind = "fluid_in_solid"\ndim = 3\nmaxh = 0.4\ncurvature_safety = 1.0')}
+
+
+@lru_cache(maxsize=None)
+def ball(dim: int) -> ngs.Mesh:
+    """The coarse fluid_in_solid mesh of the study examples."""
+    return build_geometry("fluid_in_solid", dim, 0.15 if dim == 2 else 0.4, curvature_safety=1.0)
+
+
+def to_meshio(mesh: ngs.Mesh) -> meshio.Mesh:
+    """The mesh with one cell block per region (entity tag = physical tag, named in field_data).
+    meshio's msh 4.1 writer lists only the entities that own nodes, so each block also gets one
+    unused copy of one of its nodes (a fluid ball may have no inner node); `load_mesh` drops it."""
+    dim = mesh.dim
+    points = [np.array([v.point + (0.0,) * (3 - dim) for v in mesh.vertices])]
+    owners = [np.zeros((mesh.nv, 2), dtype=int)]
+    cells, tags, names = [], [], {}
+    for vb, d, cell_type, regions in ((ngs.VOL, dim, ("triangle", "tetra")[dim - 2], mesh.GetMaterials()),
+                                      (ngs.BND, dim - 1, ("line", "triangle")[dim - 2], mesh.GetBoundaries())):
+        for tag, name in enumerate(dict.fromkeys(regions), start=1):
+            block = np.array([[v.nr for v in el.vertices] for el in mesh.Elements(vb) if el.mat == name])
+            cells.append((cell_type, block))
+            tags.append(np.full(len(block), tag))
+            names[name] = np.array([tag, d])
+            owners[0][block.ravel()] = (d, tag)
+            points.append(points[0][block[:1, 0]])
+            owners.append(np.array([[d, tag]]))
+    return meshio.Mesh(np.vstack(points), cells, point_data={"gmsh:dim_tags": np.vstack(owners)},
+                       cell_data={"gmsh:physical": tags, "gmsh:geometrical": tags}, field_data=names)
+
+
+def write(mesh: meshio.Mesh, path: Path, form: str = "41-ascii") -> Path:
+    file_format, binary = FORMATS[form]
+    meshio.write(path, mesh, file_format=file_format, binary=binary)
+    return path
+
+
+def measures(mesh: ngs.Mesh) -> list[float]:
+    """|Ω_F|, |Ω_S|, |Γ| and the flux of x - centre through the outer wall (> 0: outward normals)."""
+    centre = ngs.CF((ngs.x - 0.5, ngs.y - 0.5) + ((ngs.z - 0.5,) if mesh.dim == 3 else ()))
+    return [ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID)),
+            ngs.Integrate(1, mesh, definedon=mesh.Materials(SOLID)),
+            ngs.Integrate(1, mesh, ngs.BND, definedon=mesh.Boundaries(INTERFACE)),
+            ngs.Integrate(ngs.specialcf.normal(mesh.dim) * centre, mesh, ngs.BND,
+                          definedon=mesh.Boundaries(SOLID_WALL))]
+
+
+# --------------------------------------------------------------------------------------------
+# gmsh files
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("form", FORMATS)
+@pytest.mark.parametrize("dim", [2, 3])
+def test_gmsh_formats_round_trip(tmp_path, dim, form):
+    mesh = ball(dim)
+    loaded = load_mesh(write(to_meshio(mesh), tmp_path / "ball.msh", form))
+    assert (loaded.dim, loaded.nv, loaded.ne) == (dim, mesh.nv, mesh.ne)
+    assert set(loaded.GetMaterials()) == {FLUID, SOLID}
+    assert set(loaded.GetBoundaries()) == {INTERFACE, SOLID_WALL}
+    assert measures(loaded) == pytest.approx(measures(mesh), rel=1e-12)
+    assert measures(loaded)[3] == pytest.approx(dim)  # outward: ∫ n·(x - c) = d |box|
+    outward = ngs.Integrate(interface_normal(loaded) * ngs.CF((ngs.x - 0.5, ngs.y - 0.5, ngs.z - 0.5)[:dim]),
+                            loaded, ngs.BND, definedon=loaded.Boundaries(INTERFACE))
+    assert outward > 0
+    assert refined(loaded, 1).ne == 2**dim * mesh.ne
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_second_order_cells_keep_their_corners(tmp_path, dim):
+    """triangle6/tetra10 (and line3/triangle6 facets): the mid-edge nodes are dropped."""
+    first = to_meshio(ball(dim))
+    edges = {"line": [(0, 1)], "triangle": [(0, 1), (1, 2), (2, 0)],
+             "tetra": [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]}
+    upgrade = {"line": "line3", "triangle": "triangle6", "tetra": "tetra10"}
+    points, cells = [first.points], []
+    count = len(first.points)
+    for block in first.cells:
+        middles = [(first.points[block.data[:, i]] + first.points[block.data[:, j]]) / 2 for i, j in edges[block.type]]
+        numbers = count + np.arange(len(middles) * len(block.data)).reshape(len(middles), -1).T
+        count += numbers.size
+        points += middles
+        cells.append((upgrade[block.type], np.hstack([block.data, numbers])))
+    second = meshio.Mesh(np.vstack(points), cells, cell_data={"gmsh:physical": first.cell_data["gmsh:physical"]},
+                         field_data=first.field_data)
+    loaded = load_mesh(write(second, tmp_path / "quadratic.msh", "22-ascii"))
+    assert (loaded.nv, loaded.ne) == (ball(dim).nv, ball(dim).ne)
+    assert measures(loaded) == pytest.approx(measures(ball(dim)), rel=1e-12)
+
+
+def study_errors(tmp_path, dim, geometry: str, name: str) -> list[dict]:
+    example, old = STUDIES[dim]
+    text = (EXAMPLES / example).read_text()
+    assert old in text
+    if "curved" not in text:  # straight cells: the netgen file's geometry is not used either
+        text = text.replace("[discretisation]", "[discretisation]\ncurved = false")
+    case = tmp_path / f"{name}.toml"
+    case.write_text(text.replace(old, geometry))
+    out = tmp_path / f"{name}.json"
+    assert main(["study", str(case), "--levels", "0-1" if dim == 2 else "0", "--json", str(out), "--quiet"]) == 0
+    return [record["errors"] for record in json.loads(out.read_text())]
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_study_on_gmsh_equals_netgen_format(tmp_path, dim):
+    """`fsivsp study` on the gmsh 4.1 binary file gives the errors of the same mesh saved by netgen."""
+    mesh = ball(dim) if dim == 3 else build_geometry("fluid_over_solid", 2, 0.15)
+    netgen_file, gmsh_file = tmp_path / "mesh.vol", tmp_path / "mesh.msh"
+    mesh.ngmesh.Save(str(netgen_file))
+    write(to_meshio(mesh), gmsh_file, "41-binary")
+    own = study_errors(tmp_path, dim, f'kind = "mesh"\ndim = {dim}\npath = "{netgen_file}"', "netgen")
+    gmsh = study_errors(tmp_path, dim, f'kind = "mesh"\ndim = {dim}\npath = "{gmsh_file}"', "gmsh")
+    assert len(own) == (2 if dim == 2 else 1)
+    for a, b in zip(own, gmsh):
+        assert b == pytest.approx(a, rel=1e-10, abs=1e-14)
+
+
+# --------------------------------------------------------------------------------------------
+# CAD files
+# --------------------------------------------------------------------------------------------
+
+def test_step_example_meshes_and_curves():
+    mesh = build_geometry("cad", 3, 0.4, path=str(STEP))
+    assert set(mesh.GetMaterials()) == {FLUID, SOLID}
+    assert set(mesh.GetBoundaries()) == {INTERFACE, SOLID_WALL, "load"}  # "load": named in the file
+    assert 100 < mesh.nv < 600 < build_geometry("cad", 3, None, path=STEP).nv  # default maxh: 0.1
+    cylinder = math.pi * 0.25**2 * 0.5
+    straight = ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID))
+    try:
+        mesh.Curve(3)
+        curved = ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID))
+    finally:
+        mesh.Curve(1)
+    assert abs(curved - cylinder) < abs(straight - cylinder) / 10
+    fine = refined(mesh, 1, project=True)
+    points = np.array([fine.vertices[v.nr].point for el in fine.Elements(ngs.BND) if el.mat == INTERFACE
+                       for v in el.vertices])
+    mantle = (points[:, 2] > 0.25 + 1e-9) & (points[:, 2] < 0.75 - 1e-9)
+    assert mantle.sum() > 20
+    assert np.hypot(points[mantle, 0] - 0.5, points[mantle, 1] - 0.5) == pytest.approx(0.25, abs=1e-12)
+    n = interface_normal(mesh)
+    assert ngs.Integrate(n * ngs.CF((ngs.x - 0.5, ngs.y - 0.5, ngs.z - 0.5)), mesh, ngs.BND,
+                         definedon=mesh.Boundaries(INTERFACE)) > 0
+
+
+def test_step_example_is_what_the_script_writes(tmp_path):
+    spec = importlib.util.spec_from_file_location("make_cad_example", EXAMPLES / "make_cad_example.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.cylinder_in_box().WriteStep(str(tmp_path / "again.step"))
+    shipped = build_geometry("cad", 3, 0.4, path=STEP)
+    again = build_geometry("cad", 3, 0.4, path=tmp_path / "again.step")
+    assert (again.nv, again.ne) == (shipped.nv, shipped.ne)
+
+
+def test_regions_table_maps_solids(tmp_path):
+    from netgen.occ import Box, Glue, Pnt
+
+    Glue([Box(Pnt(0, 0, 0), Pnt(1, 1, 1)), Box(Pnt(1, 0, 0), Pnt(2, 1, 1))]).WriteStep(str(tmp_path / "two.step"))
+    mesh = build_geometry("cad", 3, 0.5, path=tmp_path / "two.step", regions={"1": "fluid", 2: "solid"})
+    assert set(mesh.GetBoundaries()) == {INTERFACE, "fluid_wall", SOLID_WALL}
+    assert ngs.Integrate(1, mesh, ngs.BND, definedon=mesh.Boundaries(INTERFACE)) == pytest.approx(1.0)
+    named = build_geometry("cad", 3, 0.4, path=STEP)
+    swapped = build_geometry("cad", 3, 0.4, path=STEP, regions={"fluid": "solid", "solid": "fluid"})
+    assert ngs.Integrate(1, swapped, definedon=swapped.Materials(SOLID)) == pytest.approx(
+        ngs.Integrate(1, named, definedon=named.Materials(FLUID)), rel=1e-12)
+    assert "fluid_wall" in swapped.GetBoundaries()
+
+
+def disk_in_square(path: Path, named: bool = True) -> Path:
+    """A plane STEP file: a fluid disk of radius 0.25 in the solid unit square, its top edge ``load``."""
+    from netgen.occ import Y, Circle, Glue, Rectangle
+
+    square, disk = Rectangle(1, 1).Face(), Circle((0.5, 0.5), 0.25).Face()
+    square.edges.Max(Y).name = "load"
+    solid = square - disk
+    if named:
+        solid.name, disk.name = SOLID, FLUID
+    Glue([solid, disk]).WriteStep(str(path))
+    return path
+
+
+def test_plane_step_file_is_2d(tmp_path):
+    mesh = build_geometry("cad", 2, 0.2, path=disk_in_square(tmp_path / "disk.step"))
+    assert mesh.dim == 2 and set(mesh.GetMaterials()) == {FLUID, SOLID}
+    assert set(mesh.GetBoundaries()) == {INTERFACE, SOLID_WALL, "load"}
+    fine = refined(mesh, 1, project=True)
+    points = np.array([fine.vertices[v.nr].point for el in fine.Elements(ngs.BND) if el.mat == INTERFACE
+                       for v in el.vertices])
+    assert np.hypot(points[:, 0] - 0.5, points[:, 1] - 0.5) == pytest.approx(0.25, abs=1e-12)
+    unnamed = disk_in_square(tmp_path / "unnamed.step", named=False)
+    mapped = build_geometry("cad", 2, 0.2, path=unnamed, regions={"1": "solid", "2": "fluid"})
+    assert mapped.nv == mesh.nv and set(mapped.GetBoundaries()) == set(mesh.GetBoundaries())
+    with pytest.raises(GeometryError, match=r"^CAD file .*disk.step: no solids \(plane faces: use dim = 2\)$"):
+        build_geometry("cad", 3, 0.2, path=tmp_path / "disk.step")
+
+
+def test_run_on_the_step_example(tmp_path):
+    case = tmp_path / "cad.toml"
+    case.write_text((EXAMPLES / "cad_3d.toml").read_text()
+                    .replace('path = "examples/cylinder_in_box.step"', f'path = "{STEP}"').replace("T = 0.05", "T = 0.03"))
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["step"] == 3
+    assert 0 < summary["l2_norms"]["velocity"] < 1 and summary["l2_norms"]["pressure"] > 0
+
+
+# --------------------------------------------------------------------------------------------
+# bad input: exit code 2 and one line through the CLI
+# --------------------------------------------------------------------------------------------
+
+def separated(mesh: meshio.Mesh) -> meshio.Mesh:
+    """The fluid with its own copies of the interface nodes (meshed apart from the solid)."""
+    fluid_tag = mesh.field_data[FLUID][0]
+    block = next(i for i, b in enumerate(mesh.cells) if b.type == "triangle" and mesh.cell_data["gmsh:physical"][i][0] == fluid_tag)
+    copies = np.arange(len(mesh.points), 2 * len(mesh.points))
+    cells = [(b.type, copies[b.data] if i == block else b.data) for i, b in enumerate(mesh.cells)]
+    return meshio.Mesh(np.vstack([mesh.points, mesh.points]), cells, cell_data=mesh.cell_data,
+                       field_data=mesh.field_data)
+
+
+def relabelled(mesh: meshio.Mesh, old: str, new: str) -> meshio.Mesh:
+    """Some of the facets of boundary ``old`` moved to the boundary ``new``."""
+    tag = mesh.field_data[old][0]
+    d = mesh.field_data[old][1]
+    tags = [t.copy() for t in mesh.cell_data["gmsh:physical"]]
+    block = next(i for i, b in enumerate(mesh.cells) if b.dim == d and tags[i][0] == tag)
+    tags[block][::2] = mesh.field_data[new][0]
+    return meshio.Mesh(mesh.points, mesh.cells, cell_data={"gmsh:physical": tags}, field_data=mesh.field_data)
+
+
+def without_block(mesh: meshio.Mesh, name: str) -> meshio.Mesh:
+    tag, d = mesh.field_data[name]
+    keep = [i for i, b in enumerate(mesh.cells) if not (b.dim == d and mesh.cell_data["gmsh:physical"][i][0] == tag)]
+    return meshio.Mesh(mesh.points, [mesh.cells[i] for i in keep],
+                       cell_data={"gmsh:physical": [mesh.cell_data["gmsh:physical"][i] for i in keep]},
+                       field_data=mesh.field_data)
+
+
+def msh_text(form: str, edit) -> callable:
+    """A fault: the 2D ball written in ``form`` and edited as text."""
+    def make(path: Path) -> Path:
+        write(to_meshio(ball(2)), path, form)
+        path.write_bytes(edit(path.read_bytes()))
+        return path
+    return make
+
+
+def msh_mesh(edit) -> callable:
+    """A fault: the 2D ball as meshio data, edited, written as gmsh 2.2."""
+    return lambda path: write(edit(to_meshio(ball(2))), path, "22-ascii")
+
+
+MESH_FAULTS = {
+    "no-physical-names": (msh_text("41-ascii", lambda b: b.split(b"$PhysicalNames")[0] + b.split(b"$EndPhysicalNames\n")[1]),
+                          "no physical names"),
+    "unknown-volume": (msh_text("22-ascii", lambda b: b.replace(b'"fluid"', b'"water"')),
+                       "volume region 'water' is neither 'fluid' nor 'solid'"),
+    "no-interface": (msh_text("41-ascii", lambda b: b.replace(b'"interface"', b'"membrane"')),
+                     "no boundary region named 'interface' (found ['membrane', 'solid_wall'])"),
+    "unnamed-interface": (msh_mesh(lambda m: without_block(m, INTERFACE)),
+                          "facets between fluid and solid cells are not in the physical group 'interface'"),
+    "truncated-ascii": (msh_text("41-ascii", lambda b: b[: len(b) // 2]), "cannot read as a gmsh mesh"),
+    "truncated-binary": (msh_text("41-binary", lambda b: b[: len(b) * 3 // 4]), "cannot read as a gmsh mesh"),
+    "empty": (msh_text("41-ascii", lambda b: b""), "cannot read as a gmsh mesh"),
+    "separate-meshes": (msh_mesh(separated), "coincident vertices"),
+    "one-sided-interface": (msh_mesh(lambda m: relabelled(m, SOLID_WALL, INTERFACE)),
+                            "a facet of 'interface' at"),
+    "unnamed-walls": (msh_mesh(lambda m: without_block(m, SOLID_WALL)), "outer facets are in no physical group"),
+}
+
+
+def study_case(tmp_path, geometry: str) -> Path:
+    example, old = STUDIES[2]
+    case = tmp_path / "case.toml"
+    case.write_text((EXAMPLES / example).read_text().replace(old, geometry))
+    return case
+
+
+def refused(case: Path, capsys) -> str:
+    capsys.readouterr()  # meshio's warnings while the test wrote the file
+    assert main(["study", str(case), "--quiet"]) == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip()
+    assert err and "\n" not in err and "Traceback" not in err and not captured.out
+    return err
+
+
+@pytest.mark.parametrize("name", MESH_FAULTS)
+def test_bad_mesh_files(tmp_path, capsys, name):
+    make, expected = MESH_FAULTS[name]
+    path = make(tmp_path / "bad.msh")
+    err = refused(study_case(tmp_path, f'kind = "mesh"\ndim = 2\npath = "{path}"'), capsys)
+    assert err.startswith(f"error: mesh file {path}: ") and expected in err
+
+
+def garbage(path: Path) -> Path:
+    path.write_text("ISO-10303-21;\nHEADER;\n")
+    return path
+
+
+def two_boxes(path: Path, gap: float = 0.0, named: bool = True, outer: str | None = None) -> Path:
+    """A fluid box next to a solid one (``gap`` apart), ``outer`` the name of the fluid's far face."""
+    from netgen.occ import X, Box, Glue, Pnt
+
+    fluid, solid = Box(Pnt(0, 0, 0), Pnt(1, 1, 1)), Box(Pnt(1 + gap, 0, 0), Pnt(2 + gap, 1, 1))
+    if named:
+        fluid.name, solid.name = FLUID, SOLID
+    if outer:
+        fluid.faces.Min(X).name = outer
+    Glue([fluid, solid]).WriteStep(str(path))
+    return path
+
+
+CAD_FAULTS = {
+    "missing": (lambda p: p, "", "error: CAD file {path}: no such file"),
+    "garbage": (garbage, "", "error: CAD file {path}: cannot read"),
+    "apart": (lambda p: two_boxes(p, gap=0.5), "", "no face is shared by the fluid and the solid"),
+    "unnamed": (lambda p: two_boxes(p, named=False), "", "error: geometry.regions: solid 1 of {path} is neither"),
+    "outer-interface": (lambda p: two_boxes(p, outer=INTERFACE), "",
+                        "error: CAD file {path}: a boundary named 'interface' is not shared by the fluid and the solid (it borders fluid only)"),
+    "unknown-key": (two_boxes, 'regions = { "3" = "fluid" }', "error: geometry.regions.3: no solid of that name or number"),
+    "bad-value": (two_boxes, 'regions = { "1" = "water" }', "error: geometry.regions.1: expected 'fluid' or 'solid', got 'water'"),
+    "one-medium": (two_boxes, 'regions = { "2" = "fluid" }', "error: geometry.regions: no solid of {path} is 'solid'"),
+    "not-a-table": (two_boxes, 'regions = ["1"]', "error: geometry.regions: expected a table"),
+    "dim": (two_boxes, "", "error: CAD file {path}: has solids: use dim = 3"),
+    "extension": (lambda p: p.with_suffix(".stl"), "", "error: CAD file {path}: unknown extension '.stl'"),
+}
+
+
+@pytest.mark.parametrize("name", CAD_FAULTS)
+def test_bad_cad_files(tmp_path, capsys, name):
+    make, extra, expected = CAD_FAULTS[name]
+    path = make(tmp_path / "part.step")
+    dim = 2 if name == "dim" else 3
+    case = study_case(tmp_path, f'kind = "cad"\ndim = {dim}\npath = "{path}"\n{extra}')
+    if dim == 3:  # a 3D exact solution for the 3D geometry
+        text = case.read_text().split("[exact]")[0] + "[exact]" + (EXAMPLES / STUDIES[3][0]).read_text().split("[exact]")[1]
+        case.write_text(text)
+    err = refused(case, capsys)
+    assert expected.format(path=path) in err
+
+
+def test_docs_example_runs(tmp_path):
+    """docs/meshes.md's Python example, run in a folder that links the examples."""
+    import os
+    import re
+    import subprocess
+    import sys
+
+    import fsivsp
+
+    code = re.search(r"```python\n(.*?)```", (EXAMPLES.parent / "docs" / "meshes.md").read_text(), re.S).group(1)
+    (tmp_path / "examples").symlink_to(EXAMPLES)
+    source = {**os.environ, "PYTHONPATH": str(Path(fsivsp.__file__).parents[1])}  # the fsivsp under test
+    result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=source, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    expected = [line.removeprefix("# ") for line in code.splitlines() if line.startswith("# [") or line.startswith("# 4")]
+    assert result.stdout.splitlines() == expected
