@@ -1,0 +1,131 @@
+"""Scale: set-up time, time per step, iterations and peak memory against the number of unknowns.
+
+The 3D fluid ball of examples/fluid_in_solid_3d.toml (MINI, its manufactured data, no error norms: the
+work of `fsivsp run`), uniformly refined, with the iterative solver and, up to ``--direct-max``, the direct
+one. Each (solver, level) runs in a process of its own, so that its peak resident memory is its own.
+Prints a table, writes JSON and a PNG plot.
+
+    python benchmarks/scale.py --levels 1-4 --steps 3 --json benchmarks/scale.json --plot benchmarks/scale.png
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
+
+
+def measure(level: int, solver: str, steps: int) -> dict:
+    """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
+    from fsivsp.case import load_study_case, to_study
+    from fsivsp.geometry import refined
+    from fsivsp.scheme import BackwardEuler
+    from fsivsp.spaces import build_spaces
+    from fsivsp.study import dirichlet_boundaries, manufactured_data
+
+    case = to_study(load_study_case(EXAMPLE))
+    seconds = {}
+    start = time.perf_counter()
+    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    seconds["mesh"] = time.perf_counter() - start
+    start = time.perf_counter()
+    dirichlet = dirichlet_boundaries(mesh)
+    spaces = build_spaces(mesh, case.family, case.order, dirichlet)
+    seconds["spaces"] = time.perf_counter() - start
+    start = time.perf_counter()
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
+    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=solver)
+    seconds["scheme"] = time.perf_counter() - start
+    seconds["solver_setup"] = scheme.solver.factor_seconds
+    setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    start = time.perf_counter()
+    scheme.march(steps)
+    seconds["step"] = (time.perf_counter() - start) / steps
+    return {"level": level, "solver": scheme.solver.method, "dofs": spaces.free_dofs(), "vertices": mesh.nv,
+            "cells": mesh.ne, "seconds": seconds, "steps": steps, "statistics": scheme.solver.statistics(),
+            "setup_peak_bytes": setup_memory,
+            "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
+
+
+def child(level: int, solver: str, steps: int) -> dict | None:
+    """`measure` in a fresh process (None if it failed, e.g. out of memory)."""
+    done = subprocess.run([sys.executable, __file__, "--child", f"{level}:{solver}:{steps}"],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        print(f"level {level} {solver}: failed ({done.returncode}): {done.stderr.strip()[-300:]}", file=sys.stderr)
+        return None
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
+    for solver, marker in (("iterative", "o"), ("direct", "s")):
+        mine = [r for r in rows if (r["solver"] == "iterative") == (solver == "iterative")]
+        if not mine:
+            continue
+        n = [r["dofs"] for r in mine]
+        left.loglog(n, [r["seconds"]["step"] for r in mine], marker + "-", label=f"{solver}: time per step")
+        left.loglog(n, [r["seconds"]["scheme"] for r in mine], marker + "--", label=f"{solver}: set-up")
+        right.loglog(n, [r["peak_bytes"] / 2**30 for r in mine], marker + "-", label=solver)
+    left.set_xlabel("free unknowns"), left.set_ylabel("seconds"), left.legend(), left.grid(True, which="both", alpha=0.3)
+    right.set_xlabel("free unknowns"), right.set_ylabel("peak memory (GiB)"), right.legend()
+    right.grid(True, which="both", alpha=0.3)
+    fig.suptitle("fsivsp: 3D fluid ball, MINI (benchmarks/scale.py)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", default="1-4", help="refinement levels A-B")
+    parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--direct-max", type=int, default=3, help="the highest level the direct solver runs")
+    parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--plot", type=Path, default=None)
+    parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        level, solver, steps = args.child.split(":")
+        print(json.dumps(measure(int(level), solver, int(steps))))
+        return
+    low, high = (int(x) for x in args.levels.split("-"))
+    rows = []
+    for level in range(low, high + 1):
+        for solver in ("direct", "iterative"):
+            if solver == "direct" and level > args.direct_max:
+                continue
+            row = child(level, solver, args.steps)
+            if row is None:
+                continue
+            rows.append(row)
+            s, st = row["seconds"], row["statistics"]
+            its = st.get("iterations") or {}
+            print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  set-up {s['scheme']:8.1f} s "
+                  f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s  its {its.get('mean', 0):6.1f}  "
+                  f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = {row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
+                  flush=True)
+    its = [r for r in rows if r["solver"] == "iterative"]
+    if len(its) >= 2:
+        import math
+        a, b = its[-2], its[-1]
+        growth = math.log(b["seconds"]["step"] / a["seconds"]["step"]) / math.log(b["dofs"] / a["dofs"])
+        print(f"iterative: time per step grows like N^{growth:.2f} between the two largest sizes")
+    if args.json:
+        from fsivsp.report import write_json
+        write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "rows": rows})
+    if args.plot:
+        plot(rows, args.plot)
+
+
+if __name__ == "__main__":
+    main()
