@@ -23,12 +23,11 @@ def mesh():
     return fsivsp.refined(fsivsp.paper_channel(), 0)
 
 
-def make_scheme(mesh, dt=1e-2, track_displacement=True):
+def make_scheme(mesh, dt=1e-2):
     spaces = fsivsp.build_spaces(mesh, "mini", dirichlet="solid_wall")
     bump = fsivsp.Field(parse_vector(["sin(pi*x/2.5)*sin(pi*y/0.41)", "0"], "velocity0", 2))
     data = fsivsp.Data(velocity0=bump, displacement0=bump)
-    return fsivsp.BackwardEuler(spaces, fsivsp.Materials(lam=2.0, mu=0.5), data, dt=dt,
-                                track_displacement=track_displacement)
+    return fsivsp.BackwardEuler(spaces, fsivsp.Materials(lam=2.0, mu=0.5), data, dt=dt)
 
 
 @pytest.fixture
@@ -79,12 +78,6 @@ def test_vtk_series_fields_points_and_collection(tmp_path, scheme, mesh):
     expected = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
     assert np.abs(s).max() > 0
     assert np.allclose(data.point_data["von_mises"].ravel(), expected, atol=1e-10)
-
-
-def test_scheme_fields_without_displacement(scheme):
-    view = types.SimpleNamespace(spaces=scheme.spaces, materials=scheme.materials, velocity=scheme.velocity,
-                                 pressure=scheme.pressure, stress=scheme.stress, displacement=None)
-    assert set(scheme_fields(view)[0]) == FIELDS - {"displacement"}
 
 
 def test_vtk_series_restore_continues_and_truncates(tmp_path, scheme, mesh):

@@ -1,7 +1,7 @@
 """Checkpoints of a `BackwardEuler` run, for restarting long production runs.
 
 A checkpoint is a ``.npz`` file holding the step number, the time, the coefficient
-vectors of the state (vⁿ, pⁿ), the stress σⁿ and the displacement (if tracked), a
+vectors of the state (vⁿ, pⁿ) and the displacement uⁿ_h (which gives σⁿ_h, see `scheme`), a
 fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, the
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
 uninterrupted one bit for bit.
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-FORMAT = 1
+FORMAT = 2  # 2: the displacement instead of the stress (lean operators)
 PREFIX = "checkpoint"
 
 
@@ -46,8 +46,8 @@ def _mesh_hash(mesh) -> str:
 
 def fingerprint(scheme) -> dict:
     """What a checkpoint must share with the run that loads it: the spaces (family, order,
-    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt, the
-    materials and whether the displacement is tracked."""
+    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt and the
+    materials."""
     spaces = scheme.spaces
     mesh = spaces.mesh
     return {
@@ -64,15 +64,11 @@ def fingerprint(scheme) -> dict:
         "ndof_mixed": spaces.mixed.ndof,
         "dt": float(scheme.dt),
         "materials": {k: float(v) for k, v in scheme.materials.as_dict().items()},
-        "displacement": scheme.displacement is not None,
     }
 
 
 def _vectors(scheme) -> dict[str, np.ndarray]:
-    arrays = {"state": scheme.state.vec.FV().NumPy(), "stress": scheme.stress.vec.FV().NumPy()}
-    if scheme.displacement is not None:
-        arrays["displacement"] = scheme.displacement.vec.FV().NumPy()
-    return arrays
+    return {"state": scheme.state.vec.FV().NumPy(), "displacement": scheme.carried.vec.FV().NumPy()}
 
 
 def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path:
@@ -127,7 +123,7 @@ def _read(path: Path) -> dict:
         raise
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise CheckpointError(f"checkpoint {path}: not a readable checkpoint ({exc})") from None
-    missing = {"format", "step", "time", "state", "stress", "fingerprint", "extra"} - contents.keys()
+    missing = {"format", "step", "time", "state", "displacement", "fingerprint", "extra"} - contents.keys()
     if missing:
         raise CheckpointError(f"checkpoint {path}: not a fsivsp checkpoint (missing {', '.join(sorted(missing))})")
     return contents
@@ -148,7 +144,7 @@ def load_checkpoint(path: str | Path, scheme) -> dict:
     """Restore step, time and vectors into ``scheme`` exactly; return the saved ``extra``.
 
     Raises `CheckpointError` if the file is unreadable or was written for another
-    discretisation (different mesh, spaces, Δt, materials or displacement tracking).
+    discretisation (different mesh, spaces, Δt or materials).
     """
     path = Path(path)
     contents = _read(path)

@@ -73,12 +73,16 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     return a
 
 
-def stress_divergence(spaces: Spaces) -> ngs.BilinearForm:
-    """(σ, w) ↦ ∫_S σ:ε(w), from S_h to X_h (the −Δt ∫_S σⁿ⁻¹:ε(w) term)."""
-    sigma = spaces.stress.TrialFunction()
-    w, _ = spaces.mixed.TestFunction()
-    a = ngs.BilinearForm(trialspace=spaces.stress, testspace=spaces.mixed)
-    a += integral(InnerProduct(sigma, eps(w)), spaces, SOLID)
+def solid_stiffness(spaces: Spaces, mat: Materials, scale: float = 1.0, mass: bool = False) -> ngs.BilinearForm:
+    """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h, times ``scale``; with ``mass``, ∫_Ω ρ v·w + scale K.
+
+    By (18) the stress update is exact, σⁿ = σ⁰_h + M_σ⁻¹C dⁿ with dⁿ = Δt Σ_{k≤n} vᵏ, and
+    ∫_S σⁿ:ε(w) = ∫_S σ⁰_h:ε(w) + K dⁿ: the −Δt ∫_S σⁿ⁻¹:ε(w) term of step 1 without stress-space operators."""
+    (v, _), (w, _) = spaces.mixed.TnT()
+    a = ngs.BilinearForm(spaces.mixed)
+    if mass:
+        a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+    a += integral(scale * InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
     return a
 
 

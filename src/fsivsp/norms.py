@@ -17,10 +17,11 @@ from typing import Callable
 
 import numpy as np
 import ngsolve as ngs
+import scipy.sparse as sp
 import sympy
 
 from .forms import DATA_BONUS, region_integral
-from .solvers import compact
+from .solvers import compact, to_ngsolve, to_scipy_csr
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
 # A norm is a sum of parts ∫_region op(u)·op(u): (region or None for Ω, op on discrete functions, op on exact fields).
@@ -77,17 +78,74 @@ def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], 
     return compact(gram.Assemble().mat)
 
 
+#: The shift of a singular Gram matrix's diagonal for the projections (`ErrorNorm` with a ``kernel``),
+#: relative to the diagonal; refinement steps then remove its effect on the projections.
+SINGULAR_SHIFT, REFINEMENT_STEPS = 1e-10, 3
+
+
+def connected_parts(mesh: ngs.Mesh, region: str) -> np.ndarray:
+    """The connected part (0, 1, …; cells sharing a vertex) of each vertex of ``region``, −1 elsewhere."""
+    import scipy.sparse.csgraph as csgraph
+
+    elements = (mesh.ngmesh.Elements3D() if mesh.dim == 3 else mesh.ngmesh.Elements2D()).NumPy()
+    mine = elements["index"] == mesh.GetMaterials().index(region) + 1
+    nodes = elements["nodes"][mine][:, : mesh.dim + 1].astype(np.int64) - 1
+    cells = np.repeat(np.arange(len(nodes)), nodes.shape[1])
+    incidence = sp.csr_matrix((np.ones(nodes.size), (cells, nodes.ravel())), shape=(len(nodes), mesh.nv))
+    _, labels = csgraph.connected_components(incidence @ incidence.T, directed=False)
+    part = np.full(mesh.nv, -1)
+    part[nodes.ravel()] = np.repeat(labels, nodes.shape[1])
+    return part
+
+
+def rigid_motions(space: ngs.FESpace, select: Callable, region: str) -> list[ngs.BaseVector]:
+    """The kernel of ε on ``region``: translations and rotations of each connected part of it,
+    interpolated (exactly: they are affine) in the unknown ``select`` picks, zero elsewhere."""
+    mesh = space.mesh
+    x, y, z = ngs.x, ngs.y, ngs.z
+    fields = [(1, 0), (0, 1), (-y, x)] if mesh.dim == 2 else \
+        [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (-z, 0, x), (0, -z, y)]
+    part = connected_parts(mesh, region)
+    parts = part.max() + 1
+    owner = None
+    if parts > 1:  # the part of each dof, from the cells of the region
+        owner = np.full(space.ndof, -1)
+        for el in mesh.Elements(ngs.VOL):
+            if el.mat == region:
+                owner[[d for d in space.GetDofNrs(el) if d >= 0]] = part[el.vertices[0].nr]
+    motions = []
+    for field in fields:
+        gf = ngs.GridFunction(space)
+        select(gf).Set(ngs.CF(field), definedon=mesh.Materials(region))
+        for k in range(parts):
+            vector = gf.vec.CreateVector()
+            vector.data = gf.vec
+            if owner is not None:
+                vector.FV().NumPy()[owner != k] = 0.0
+            motions.append(vector)
+    return motions
+
+
 class ErrorNorm:
-    """t ↦ ‖E(t) − u_h‖ for one unknown.
+    """t ↦ ‖E(t) − offset − op(u_h)‖ for one unknown.
 
     ``select`` picks the unknown out of the space's trial/test functions and
     GridFunctions: `component` (i) for a product space such as X_h = V_h × Q_h, `whole` otherwise.
+    ``offset`` (one part only) is a fixed discrete field subtracted from the exact one: the stress
+    σ_h = σ*_h + Cε(u_h) of the lean scheme is measured with op = Cε on the displacement u_h.
     """
 
-    def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int, bonus: int = 0):
-        """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`."""
+    def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int, bonus: int = 0,
+                 offset: ngs.CoefficientFunction | None = None, kernel: list[ngs.BaseVector] | None = None):
+        """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`;
+        ``kernel``: a basis of the kernel of the Gram matrix on the dofs it sees (Cε: `rigid_motions`). The
+        projections are then solved with `SINGULAR_SHIFT` and refined, and Σ T_k π_k − u_h is cleared of its
+        kernel part before the product with G, which would otherwise leave a floor of about 1e-9 ‖E‖ (the
+        rounding of G times an O(1) rigid motion, squared and rooted)."""
+        if offset is not None and len(parts) != 1:
+            raise ValueError("ErrorNorm: an offset needs a norm of one part")
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder
-        self.bonus = bonus
+        self.bonus, self.offset = bonus, offset
         w = select(space.TestFunction())
         self._gram = gram_matrix(space, [(select, parts)], bonus)
         self._diff = self._gram.CreateColVector()
@@ -96,25 +154,28 @@ class ErrorNorm:
         if terms is None:
             self._time = ngs.Parameter(0.0)
             self._uh = ngs.GridFunction(space)
-            self._integrand = self._remainder(self._exact_cfs(exact, self._time), self._uh)
+            self._integrand = self._remainder(self._offset(self._exact_cfs(exact, self._time)), self._uh)
             self._terms = None
             return
-        self._terms = [(to_function(tk), _shaped(exact, sk)) for tk, sk in terms]
+        self._terms = [(to_function(tk), self._exact_cfs(_shaped(exact, sk), 0.0)) for tk, sk in terms]
+        if offset is not None:
+            self._terms.append((lambda t: 1.0, [-offset]))
         used = self._used_dofs()
         dofs = np.flatnonzero([used[i] for i in range(len(used))])
         contiguous = len(dofs) and dofs[-1] - dofs[0] + 1 == len(dofs)
         self.dofs = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else dofs  # a view where possible
-        inverse = self._gram.Inverse(used, inverse="sparsecholesky")
+        project = self._projector(used, kernel is not None)
+        self._kernel = None if kernel is None else np.linalg.qr(
+            np.column_stack([k.FV().NumPy()[self.dofs] for k in kernel]))[0]
         self._projections = []
-        for _, spatial in self._terms:
+        for _, cfs in self._terms:
             load = ngs.LinearForm(space)
-            for (region, op, _), cf in zip(parts, self._exact_cfs(spatial, 0.0)):
+            for (region, op, _), cf in zip(parts, cfs):
                 load += _integral(ngs.InnerProduct(cf, op(w)), region, bonus)
             pi = ngs.GridFunction(space)
-            pi.vec.data = inverse * load.Assemble().vec
+            project(load.Assemble().vec, pi.vec)
             self._projections.append(pi)
-        remainders = [self._remainder(self._exact_cfs(spatial, 0.0), pi)
-                      for (_, spatial), pi in zip(self._terms, self._projections)]
+        remainders = [self._remainder(cfs, pi) for (_, cfs), pi in zip(self._terms, self._projections)]
         k = len(self._terms)
         self._residual = np.zeros((k, k))
         for a in range(k):
@@ -122,6 +183,27 @@ class ErrorNorm:
                 self._residual[a, b] = self._residual[b, a] = sum(
                     self._integrate(ra * rb if ra.dim == 1 else ngs.InnerProduct(ra, rb), region)
                     for (ra, region), (rb, _) in zip(remainders[a], remainders[b]))
+
+    def _projector(self, used: ngs.BitArray, singular: bool) -> Callable:
+        """load, out ↦ out = G⁺ load on the used dofs: a Cholesky factorisation of G, or, if ``singular``, of
+        G + `SINGULAR_SHIFT` diag(G) followed by `REFINEMENT_STEPS` of iterative refinement with G."""
+        gram = self._gram
+        if singular:
+            csr = to_scipy_csr(gram)
+            gram = to_ngsolve(csr + SINGULAR_SHIFT * sp.diags(csr.diagonal()))
+        inverse = gram.Inverse(used, inverse="sparsecholesky")
+
+        def project(load: ngs.BaseVector, out: ngs.BaseVector) -> None:
+            out.data = inverse * load
+            residual = load.CreateVector()
+            for _ in range(REFINEMENT_STEPS if singular else 0):
+                residual.data = load - self._gram * out
+                out.data += inverse * residual
+
+        return project
+
+    def _offset(self, cfs: list) -> list:
+        return cfs if self.offset is None else [cfs[0] - self.offset]
 
     def _integrate(self, cf, region) -> float:
         mesh = self.space.mesh
@@ -167,6 +249,10 @@ class ErrorNorm:
             return float(np.sqrt(max(self.by_quadrature(uh, time), 0.0)))
         self._diff.data = -uh
         remainder = self.add_projection(self._diff, time)
+        if self._kernel is not None:
+            seen = self._diff.FV().NumPy()[self.dofs]  # a view for a contiguous range
+            seen -= self._kernel @ (self._kernel.T @ seen)
+            self._diff.FV().NumPy()[self.dofs] = seen
         self._work.data = self._gram * self._diff
         return float(np.sqrt(max(remainder + ngs.InnerProduct(self._diff, self._work), 0.0)))
 

@@ -72,8 +72,7 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
 
     ``velocity`` (d components), ``pressure`` (the fluid pressure, 0 in the solid),
     ``stress`` (the solid stress σ as d·d row-major components, 0 in the fluid),
-    ``von_mises`` (see `von_mises`, 0 in the fluid) and ``displacement`` (d components,
-    only if the scheme tracks it).
+    ``von_mises`` (see `von_mises`, 0 in the fluid) and ``displacement`` (d components, 0 in the fluid).
     """
     dim = scheme.spaces.mesh.dim
     stress = SolidStress(scheme)
@@ -82,9 +81,8 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
         "pressure": scheme.pressure,
         "stress": stress.values,
         "von_mises": von_mises(ngs.CF(stress.values, dims=(dim, dim)), scheme.materials, dim),
+        "displacement": scheme.displacement,
     }
-    if scheme.displacement is not None:
-        fields["displacement"] = scheme.displacement
     return fields, stress
 
 

@@ -1,10 +1,16 @@
 """The fully discrete scheme (5.1): backward Euler, one saddle-point solve per step,
 then the pointwise stress update.
 
-Everything that depends only on the mesh and Δt — the step-1 matrix and its
-factorisation, the mass and coupling operators, the load vectors of time-separable
-data — is built once in `BackwardEuler.__init__`; `step` only applies operators to
-vectors.
+Everything that depends only on the mesh and Δt — the step-1 matrix and its solver,
+the mass and stiffness operators, the load vectors of time-separable data — is built
+once in `BackwardEuler.__init__`; `step` only applies operators to vectors.
+
+Lean operators: the stress update is linear and exact by (18), so with the displacement
+uⁿ_h = I_h u⁰ + Δt Σ_{k≤n} vᵏ (5), σⁿ_h = σ*_h + C ε(uⁿ_h), where σ*_h = σ⁰_h − C ε(I_h u⁰) is zero unless
+σ⁰_h is the L² projection (26). The term −Δt ∫_S σⁿ⁻¹:ε(w) of step 1 is −Δt (b* + K uⁿ⁻¹_h), with
+b* = ∫_S σ*_h:ε(w) and K the solid stiffness on the velocity's pattern (`forms.solid_stiffness`). The
+scheme keeps no stress-space matrix: σⁿ_h is a CoefficientFunction, formed per cell where it is written
+or measured.
 """
 from __future__ import annotations
 
@@ -97,39 +103,41 @@ MARCH_THREAD_MIN_DOFS = 10_000
 
 
 class BackwardEuler:
-    """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1)."""
+    """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1).
+
+    The state is (vⁿ, pⁿ) (``state``) and the displacement uⁿ_h (``displacement``, the velocity part of
+    ``carried``); ``stress`` is σⁿ_h = σ*_h + λ div uⁿ_h I + 2μ ε(uⁿ_h), a CoefficientFunction (σ*_h: see the
+    module's docstring; a GridFunction on S_h only where σ⁰_h is a projection, else None)."""
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
-                 solver: str | None = None, track_displacement: bool = False, tolerance: float = TOLERANCE,
+                 solver: str | None = None, tolerance: float = TOLERANCE,
                  max_iterations: int = MAX_ITERATIONS):
         """``solver``: a name `solvers.step_solver` accepts (None: ``"auto"``); ``tolerance`` and
         ``max_iterations`` are the iterative solver's."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
-        X, S = spaces.mixed, spaces.stress
+        X, dim = spaces.mixed, spaces.mesh.dim
 
         step = forms.step_matrix(spaces, materials, dt).Assemble()
         self._matrix = step.mat
         self.solver = step_solver(step.mat, spaces, materials, dt, solver, tolerance, max_iterations)
         self._mass = compact(forms.velocity_mass(spaces, materials).Assemble().mat)
-        self._divergence = compact(forms.stress_divergence(spaces).Assemble().mat)
-        rate = forms.stress_rate(spaces, materials).Assemble().mat
-        self._stress_inverse = block_inverse(forms.stress_mass(spaces).Assemble().mat, S)
-        update = to_scipy_csr(self._stress_inverse) @ to_scipy_csr(rate)  # M_σ⁻¹C
-        update.eliminate_zeros()
-        self._stress_update = to_ngsolve(update)
+        self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
         if spaces.free_dofs() >= MARCH_THREAD_MIN_DOFS:
             self._lagged_mass  # built here with the other operators, not in `march`'s first step
-        self._compliance = self._compliance_matrix()
 
         self._loads = self._load_vectors()
         self._dirichlet, self._lifts = self._dirichlet_vectors()
 
         self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ)
-        self.stress = ngs.GridFunction(S)      # σⁿ
+        self.carried = ngs.GridFunction(X)     # (uⁿ_h, 0)
         self.velocity, self.pressure = self.state.components
-        self.displacement = ngs.GridFunction(spaces.velocity) if track_displacement else None
+        self.displacement = self.carried.components[0]
+        self.stress_offset = ngs.GridFunction(spaces.stress) if data.stress0 is not None else None   # σ*_h
+        self.stress = forms.elastic_stress(self.displacement, materials, dim)
+        if self.stress_offset is not None:
+            self.stress = self.stress_offset + self.stress
         self.time, self.n = 0.0, 0
         self._rhs = self.state.vec.CreateVector()
         self._boundary = self.state.vec.CreateVector()
@@ -212,44 +220,50 @@ class BackwardEuler:
 
         return image
 
-    def _compliance_matrix(self) -> ngs.BaseMatrix:
-        """∫_S A σ:τ with the compliance A σ = (σ − λ/(dλ + 2μ) tr(σ) I) / (2μ) (elastic energy)."""
-        S, mat, dim = self.spaces.stress, self.materials, self.spaces.mesh.dim
-        sigma, tau = S.TnT()
-        a = ngs.BilinearForm(S)
-        a += (InnerProduct(sigma, tau) - mat.lam / (dim * mat.lam + 2 * mat.mu) * ngs.Trace(sigma) * ngs.Trace(tau)) \
-            / (2 * mat.mu) * dx(SOLID)
-        return compact(a.Assemble().mat)
+    def _compliance(self, sigma: ngs.CoefficientFunction, tau: ngs.CoefficientFunction) -> ngs.CoefficientFunction:
+        """A σ:τ with the compliance A σ = (σ − λ/(dλ + 2μ) tr(σ) I) / (2μ) (elastic energy)."""
+        mat, dim = self.materials, self.spaces.mesh.dim
+        return (InnerProduct(sigma, tau) - mat.lam / (dim * mat.lam + 2 * mat.mu) * ngs.Trace(sigma) * ngs.Trace(tau)) \
+            / (2 * mat.mu)
 
     # -- state ------------------------------------------------------------------------
     def initialise(self) -> None:
-        """v⁰_h = I_h v⁰ or by the projections (22)–(23), σ⁰_h from the interpolated displacement or
-        by the L² projection (26)."""
-        d, S = self.data, self.spaces.stress
+        """v⁰_h = I_h v⁰ or by the projections (22)–(23); u⁰_h = I_h u⁰ (0 if no u⁰ is given); σ⁰_h = C ε(u⁰_h)
+        (= M_σ⁻¹C I_h u⁰ by (18), the paper's experiment) or the L² projection (26) of σ⁰, kept as
+        σ*_h = σ⁰_h − C ε(u⁰_h); b* = ∫_S σ*_h:ε(w) and the elastic energy of σ*_h."""
+        d, spaces = self.data, self.spaces
         self.state.vec[:] = 0.0
         if d.initial_velocity == "projection":
             self.state.vec.data = self._projected_state()
         else:
-            self.velocity.vec.data = interpolate(self.spaces, d.velocity0.coefficient(0.0)).vec
-        self.stress.vec[:] = 0.0
-        u0 = None
+            self.velocity.vec.data = interpolate(spaces, d.velocity0.coefficient(0.0)).vec
+        self.carried.vec[:] = 0.0
         if d.displacement0 is not None:
-            u0 = interpolate(self.spaces, d.displacement0.coefficient(0.0))
-        if d.stress0 is not None:
-            tau = S.TestFunction()
-            load = ngs.LinearForm(S)
-            load += InnerProduct(d.stress0.coefficient(0.0), tau) * dx(SOLID, bonus_intorder=4)
-            self.stress.vec.data = self._stress_inverse * load.Assemble().vec
-        elif u0 is not None:
-            displacement = self.state.vec.CreateVector()
-            displacement[:] = 0.0
-            displacement[: len(u0.vec)] = u0.vec  # V_h is the first block of X_h
-            self.stress.vec.data = self._stress_update * displacement
-        if self.displacement is not None:
-            self.displacement.vec[:] = 0.0
-            if u0 is not None:
-                self.displacement.vec.data = u0.vec
+            self.displacement.vec.data = interpolate(spaces, d.displacement0.coefficient(0.0)).vec
+        self._offset_load = self.state.vec.CreateVector()
+        self._offset_load[:] = 0.0
+        self._offset_energy = 0.0
+        if self.stress_offset is not None:
+            self._project_offset()
         self.time, self.n = 0.0, 0
+
+    def _project_offset(self) -> None:
+        """σ*_h = Π σ⁰ − M_σ⁻¹C u⁰_h (Π the L² projection (26) onto S_h), b* and ∫_S Aσ*_h:σ*_h. The
+        stress-space operators live only here, for the length of this call."""
+        spaces, offset = self.spaces, self.stress_offset
+        tau = spaces.stress.TestFunction()
+        projection = ngs.LinearForm(spaces.stress)
+        projection += InnerProduct(self.data.stress0.coefficient(0.0), tau) * dx(SOLID, bonus_intorder=4)
+        rate = forms.stress_rate(spaces, self.materials).Assemble().mat
+        load = projection.Assemble().vec
+        load.data -= rate * self.carried.vec
+        offset.vec.data = block_inverse(forms.stress_mass(spaces).Assemble().mat, spaces.stress) * load
+        w, _ = spaces.mixed.TestFunction()
+        form = ngs.LinearForm(spaces.mixed)
+        form += forms.integral(InnerProduct(offset, forms.eps(w)), spaces, SOLID)
+        self._offset_load.data = form.Assemble().vec
+        mesh = spaces.mesh
+        self._offset_energy = ngs.Integrate(self._compliance(offset, offset), mesh, definedon=mesh.Materials(SOLID))
 
     def _projected_state(self) -> ngs.BaseVector:
         """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),
@@ -269,8 +283,8 @@ class BackwardEuler:
         return state
 
     def step(self) -> None:
-        """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then
-        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)) exactly (condition (18))."""
+        """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then the stress update
+        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)), exact by (18), as dⁿ = dⁿ⁻¹ + Δt vⁿ."""
         time = (self.n + 1) * self.dt  # no accumulated round-off in tₙ = nΔt
         self.right_hand_side(time)
         self.solve()
@@ -281,10 +295,10 @@ class BackwardEuler:
         """``steps`` steps of (5.1), calling ``observe(self)`` after each one with the scheme at that step.
 
         From `MARCH_THREAD_MIN_DOFS` free unknowns on, a second thread finishes step n while this one
-        solves step n + 1: the stress update σⁿ = σⁿ⁻¹ + Δt M_σ⁻¹C vⁿ, ``observe`` (one call at a time
+        solves step n + 1: the stress update dⁿ = dⁿ⁻¹ + Δt vⁿ, ``observe`` (one call at a time
         and in order; the last in this thread) and the part of the next right-hand side without vⁿ⁺¹
         (`_lagged_data`).
-        Between two solves only the product (M − Δt² B M_σ⁻¹C) vⁿ⁺¹ is left. ``observe`` must not step
+        Between two solves only the product (M − Δt² K) vⁿ⁺¹ is left. ``observe`` must not step
         the scheme. The results equal `step` repeated up to round-off (7e-14 relative after 100 steps of the
         paper's experiment, level 4). Under NGSolve's TaskManager the two threads compete for its workers:
         `step` is faster there (100 steps at 17 931 unknowns: 0.33 s against 0.43 s)."""
@@ -321,16 +335,12 @@ class BackwardEuler:
 
     @functools.cached_property
     def _lagged_mass(self) -> ngs.BaseMatrix:
-        """M − Δt² B M_σ⁻¹C, so that M vⁿ − Δt B σⁿ = (M − Δt² B M_σ⁻¹C) vⁿ − Δt B σⁿ⁻¹ (B M_σ⁻¹C is
-        ∫_S Cε(v):ε(w)). Only a threaded `march` uses it, so it is built only where `march` threads
-        (0.21 s and 854 306 entries at level 4 of the paper's experiment)."""
-        lagged = to_scipy_csr(self._mass) - self.dt**2 * (to_scipy_csr(self._divergence)
-                                                          @ to_scipy_csr(self._stress_update))
-        lagged.eliminate_zeros()
-        return to_ngsolve(lagged)
+        """M − Δt² K, so that M vⁿ − Δt (b* + K uⁿ_h) = (M − Δt² K) vⁿ − Δt (b* + K uⁿ⁻¹_h). Only a threaded
+        `march` uses it, so it is built only where `march` threads."""
+        return compact(forms.solid_stiffness(self.spaces, self.materials, -self.dt**2, mass=True).Assemble().mat)
 
     def _accept(self, solution: ngs.BaseVector, n: int, observe) -> None:
-        """Make step n the scheme's state: (vⁿ, pⁿ), σⁿ, tₙ; then ``observe``."""
+        """Make step n the scheme's state: (vⁿ, pⁿ), uⁿ_h, tₙ; then ``observe``."""
         self.state.vec.data = solution
         self.update_stress()
         self.time, self.n = n * self.dt, n
@@ -338,16 +348,19 @@ class BackwardEuler:
             observe(self)
 
     def _lagged_data(self, out: ngs.BaseVector, boundary: ngs.BaseVector, time: float) -> None:
-        """Into ``out`` the right-hand side at ``time`` but for its term (M − Δt² B M_σ⁻¹C) v of the step
-        before: −Δt B σ with the current σ, the loads and the lifts; the Dirichlet values into ``boundary``."""
-        out.data = -self.dt * (self._divergence * self.stress.vec)
+        """Into ``out`` the right-hand side at ``time`` but for its term (M − Δt² K) v of the step
+        before: −Δt (b* + K u_h) with the current u_h, the loads and the lifts; the Dirichlet values into
+        ``boundary``."""
+        out.data = -self.dt * self._offset_load
+        out.data -= self.dt * (self._stiffness * self.carried.vec)
         self._add_data(out, boundary, time)
 
     def right_hand_side(self, time: float) -> None:
         """Step 1's right-hand side, Δt f(tₙ) + ρ vⁿ⁻¹ − Δt σⁿ⁻¹:ε(·), minus the lift of the
         Dirichlet values vⁿ|∂Ω; the lift itself is kept in the boundary vector."""
         self._rhs.data = self._mass * self.state.vec
-        self._rhs.data -= self.dt * (self._divergence * self.stress.vec)
+        self._rhs.data -= self.dt * self._offset_load
+        self._rhs.data -= self.dt * (self._stiffness * self.carried.vec)
         self._add_data(self._rhs, self._boundary, time)
 
     def _add_data(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, time: float) -> None:
@@ -369,12 +382,12 @@ class BackwardEuler:
                                out, self.state.vec if previous is None else previous)
 
     def update_stress(self) -> None:
-        """Step 2 of (5.1), and the displacement (5) if tracked."""
-        self.stress.vec.data += self.dt * (self._stress_update * self.state.vec)
-        if self.displacement is not None:
-            self.displacement.vec.data += self.dt * self.velocity.vec
+        """Step 2 of (5.1), exact by (18), as the displacement's update (5): uⁿ_h = uⁿ⁻¹_h + Δt vⁿ."""
+        self.displacement.vec.data += self.dt * self.velocity.vec
 
     def energy(self) -> float:
-        """½∫ρ|vⁿ|² + ½∫_S Aσⁿ:σⁿ; non-increasing when f = 0 and the boundary is at rest."""
-        x, s = self.state.vec, self.stress.vec
-        return 0.5 * (InnerProduct(x, self._mass * x) + InnerProduct(s, self._compliance * s))
+        """½∫ρ|vⁿ|² + ½∫_S Aσⁿ_h:σⁿ_h; non-increasing when f = 0 and the boundary is at rest. With
+        σⁿ_h = σ*_h + Cε(uⁿ_h): ∫_S Aσⁿ_h:σⁿ_h = ∫_S Aσ*_h:σ*_h + 2 b*·uⁿ_h + uⁿ_h·K uⁿ_h."""
+        x, u = self.state.vec, self.carried.vec
+        elastic = self._offset_energy + 2 * InnerProduct(self._offset_load, u) + InnerProduct(u, self._stiffness * u)
+        return 0.5 * (InnerProduct(x, self._mass * x) + elastic)
