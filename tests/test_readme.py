@@ -107,3 +107,18 @@ def test_console_example_is_what_the_cli_prints():
 def test_relative_links_exist(page):
     targets = [t.split("#")[0] for t in re.findall(r"\]\(([^)]+)\)", page.read_text()) if "://" not in t]
     assert [t for t in targets if t and not (page.parent / t).exists()] == []
+
+
+def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkeypatch, capsys):
+    """``fsivsp matrix --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix)."""
+    import fsivsp.verification
+    from fsivsp.cli import main
+
+    page = tmp_path / "verification.md"
+    text = (ROOT / "docs" / "verification.md").read_text()
+    page.write_text(text)
+    monkeypatch.setattr(fsivsp.verification, "TABLE", [])
+    assert main(["matrix", "--quiet", "--readme", str(page)]) == 0
+    head, table = text.split("<!-- matrix:begin -->\n")[0], capsys.readouterr().out.strip()
+    tail = text.split("<!-- matrix:end -->")[1]
+    assert page.read_text() == f"{head}<!-- matrix:begin -->\n{table}\n<!-- matrix:end -->{tail}"
