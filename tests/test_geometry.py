@@ -222,7 +222,7 @@ def _shapes(mesh: ngs.Mesh) -> set[tuple[float, ...]]:
 def test_refinement_is_red():
     """Uniform refinement splits each triangle into four similar to it (red refinement). NGSolve's
     bisection of marked elements, on the same vertices, does not, and the paper's experiment then rings
-    (velocity errors 2.6× the paper's instead of 0.76×, README)."""
+    (velocity errors 2.6× the paper's instead of 0.76×, docs/paper.md)."""
     mesh = g.paper_channel()
     fine = refined(mesh, 1, project=False)
     assert fine.ne == 4 * mesh.ne

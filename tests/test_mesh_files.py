@@ -360,22 +360,3 @@ def test_bad_cad_files(tmp_path, capsys, name):
         case.write_text(text)
     err = refused(case, capsys)
     assert expected.format(path=path) in err
-
-
-def test_docs_example_runs(tmp_path):
-    """docs/meshes.md's Python example, run in a folder that links the examples."""
-    import os
-    import re
-    import subprocess
-    import sys
-
-    import fsivsp
-
-    code = re.search(r"```python\n(.*?)```", (EXAMPLES.parent / "docs" / "meshes.md").read_text(), re.S).group(1)
-    (tmp_path / "examples").symlink_to(EXAMPLES)
-    source = {**os.environ, "PYTHONPATH": str(Path(fsivsp.__file__).parents[1])}  # the fsivsp under test
-    result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=source, capture_output=True, text=True,
-                            timeout=120)
-    assert result.returncode == 0, result.stderr
-    expected = [line.removeprefix("# ") for line in code.splitlines() if line.startswith("# [") or line.startswith("# 4")]
-    assert result.stdout.splitlines() == expected

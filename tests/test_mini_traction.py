@@ -1,4 +1,4 @@
-"""Why MINI around the 3D fluid ball is short of its rate (README, "Notes on the elements").
+"""Why MINI around the 3D fluid ball is short of its rate (docs/verification.md, "Notes on the elements").
 
 Around a soft solid the enclosed fluid sees the interface almost as a traction boundary. This test
 pins the element's behaviour there, with Stokes alone in the example's polyhedral ball (one backward
@@ -7,7 +7,7 @@ pressure converges slowly on the levels the matrix can afford, with the exact ve
 superconverges; on level 5 (slow) the traction problem reaches its rate. The coupled step's
 discrete inf-sup constant is the traction problem's: the bottom of the pressure Schur complement's
 spectrum, still falling with the traction boundary, settled with the velocity prescribed. If these
-stop being true, the README's explanation is stale.
+stop being true, the explanation in docs/verification.md is stale.
 """
 import netgen.meshing as nm
 import ngsolve as ngs

@@ -3,7 +3,7 @@
 Our meshes are not the paper's (netgen grades towards the disk: 136 vertices, 45 on ∂Ω,
 12 on Γ against the paper's 128, 38 and 8), hence factors rather than digits. With the paper's
 recipe (σ⁰ from the interpolated displacement, the default) and red refinement every error is
-0.4–0.85 of the paper's (README, "Reproducing the paper"); the L² projection (26) of σ(0) gives
+0.4–0.85 of the paper's (docs/paper.md); the L² projection (26) of σ(0) gives
 e(σ) about 1.7× smaller on the coarse levels.
 """
 import pytest

@@ -1,26 +1,124 @@
-"""The README's examples run (documentation that cannot rot)."""
+"""Every example of README.md and docs/*.md runs (documentation that cannot rot).
+
+``python`` blocks run as scripts (a whole-line ``# ...`` comment right after a ``print`` line is its
+expected output); every ``fsivsp`` line of a ``sh`` block is in `COMMANDS`, which says whether it runs
+(cheap) or only parses (its case files and paths must exist); the ``console`` example is what the CLI prints.
+"""
+import os
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
-README = (Path(__file__).parents[1] / "README.md").read_text()
-PYTHON_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
+import fsivsp
+from fsivsp.cli import build_parser
+
+ROOT = Path(__file__).parents[1]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+ENV = {**os.environ, "PYTHONPATH": str(Path(fsivsp.__file__).parents[1])}  # the fsivsp under test
+RUN, PARSE = "run", "parse"
+
+#: Every fsivsp command of the docs' sh blocks and how the test checks it: RUN (each under 10 s) or PARSE.
+COMMANDS = {
+    "fsivsp paper --dt 1e-2 --levels 0-2": RUN,
+    "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-1": RUN,
+    "fsivsp run examples/pressure_wave_2d.toml --out wave2d": RUN,
+    "fsivsp matrix --readme docs/verification.md": PARSE,
+    "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-3 --json study.json": RUN,
+    "fsivsp run examples/pressure_wave_2d.toml --out wave2d --resume": RUN,
+    "fsivsp run examples/cad_3d.toml --out cad3d": RUN,
+    "fsivsp paper --dt 1e-2 --levels 0-4": PARSE,
+    "fsivsp paper --dt 1e-3 --levels 2 --json out.json": PARSE,
+    "fsivsp paper --all --out paper-report": PARSE,
+    "fsivsp paper --dt 1e-2 --initial-stress projection --project": PARSE,
+}
 
 
-@pytest.mark.parametrize("code", PYTHON_BLOCKS, ids=[f"block{i}" for i in range(len(PYTHON_BLOCKS))])
-def test_python_examples_run(code, tmp_path):
-    script = tmp_path / "example.py"
-    script.write_text(code)
-    result = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+def blocks(language: str) -> list[tuple[str, str]]:
+    """(page name, text) of every ```language block of the pages."""
+    return [(page.name, text) for page in PAGES
+            for text in re.findall(rf"```{language}\n(.*?)```", page.read_text(), re.S)]
+
+
+def commands() -> list[str]:
+    """The fsivsp lines of the sh blocks, without the venv prefix and the comments."""
+    lines = [line.split("#")[0].strip().removeprefix(".venv/bin/") for _, text in blocks("sh")
+             for line in text.splitlines()]
+    return [line for line in lines if line.startswith("fsivsp ")]
+
+
+@pytest.fixture
+def workdir(tmp_path):
+    """A folder that links the repository's examples (commands and scripts run from it)."""
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    return tmp_path
+
+
+PYTHON_BLOCKS = blocks("python")
+
+
+@pytest.mark.parametrize("page, code", PYTHON_BLOCKS, ids=[f"{page}-{i}" for i, (page, _) in enumerate(PYTHON_BLOCKS)])
+def test_python_examples_run(page, code, workdir):
+    result = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=ENV, capture_output=True, text=True,
+                            timeout=60)
     assert result.returncode == 0, result.stderr
+    lines = code.splitlines()
+    expected = [after.removeprefix("# ") for before, after in zip(lines, lines[1:])
+                if before.startswith("print(") and after.startswith("# ")]
+    if expected:
+        assert result.stdout.splitlines() == expected
+
+
+def test_every_documented_command_is_checked():
+    assert sorted(set(commands())) == sorted(COMMANDS)
+
+
+@pytest.mark.parametrize("command", [c for c in COMMANDS if COMMANDS[c] == PARSE])
+def test_long_commands_parse(command):
+    args = build_parser().parse_args(shlex.split(command)[1:])
+    for name in ("case", "readme"):
+        if getattr(args, name, None) is not None:
+            assert (ROOT / getattr(args, name)).is_file(), f"{command}: no file {getattr(args, name)}"
+
+
+@pytest.mark.parametrize("command", [c for c in COMMANDS if COMMANDS[c] == RUN])
+def test_cheap_commands_run(command, workdir):
+    """Each in a fresh folder; a ``--resume`` first runs its command without it."""
+    chain = [command.removesuffix(" --resume"), command] if command.endswith(" --resume") else [command]
+    for line in chain:
+        result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *shlex.split(line)[1:], "--quiet"],
+                                cwd=workdir, env=ENV, capture_output=True, text=True, timeout=60)
+        assert result.returncode == 0, f"{line}: {result.stderr}"
 
 
 def test_console_example_is_what_the_cli_prints():
-    command, expected = re.search(r"```console\n\$ (.*?)\n(.*?)\n```", README, re.S).groups()
-    args = command.split()[1:]
-    result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *args], capture_output=True, text=True)
+    (_, text), = blocks("console")
+    command, expected = re.match(r"\$ (.*?)\n(.*)", text, re.S).groups()
+    result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *command.split()[1:]], env=ENV,
+                            capture_output=True, text=True)
     assert result.returncode == 2
     assert result.stderr.strip() == expected.strip()
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[page.name for page in PAGES])
+def test_relative_links_exist(page):
+    targets = [t.split("#")[0] for t in re.findall(r"\]\(([^)]+)\)", page.read_text()) if "://" not in t]
+    assert [t for t in targets if t and not (page.parent / t).exists()] == []
+
+
+def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkeypatch, capsys):
+    """``fsivsp matrix --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix)."""
+    import fsivsp.verification
+    from fsivsp.cli import main
+
+    page = tmp_path / "verification.md"
+    text = (ROOT / "docs" / "verification.md").read_text()
+    page.write_text(text)
+    monkeypatch.setattr(fsivsp.verification, "TABLE", [])
+    assert main(["matrix", "--quiet", "--readme", str(page)]) == 0
+    head, table = text.split("<!-- matrix:begin -->\n")[0], capsys.readouterr().out.strip()
+    tail = text.split("<!-- matrix:end -->")[1]
+    assert page.read_text() == f"{head}<!-- matrix:begin -->\n{table}\n<!-- matrix:end -->{tail}"

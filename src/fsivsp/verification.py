@@ -49,8 +49,8 @@ def _entries() -> list[Entry]:
     table = []
     for configuration in CONFIGURATIONS:
         # MINI in the enclosed fluid ball: the pressure's per-pair rates are 1.87, 1.00, 0.79, 0.94 on levels
-        # 0→1→2→3→4 (MINI's pressure next to an interface that acts as a traction boundary, README), so the
-        # entry runs on the finest affordable levels, 2–4 (120 721 vertices, 20 minutes).
+        # 0→1→2→3→4 (MINI's pressure next to an interface that acts as a traction boundary,
+        # docs/verification.md), so the entry runs on the finest affordable levels, 2–4 (120 721 vertices, 20 minutes).
         mini_fluid_ball = configuration == "fluid_in_solid"
         table += [Entry("mini", 1, 2, configuration), Entry("taylor_hood", 1, 2, configuration),
                   Entry("taylor_hood", 2, 2, configuration), Entry("taylor_hood", 3, 2, configuration, slow=True),
