@@ -2,7 +2,6 @@
 import csv
 import json
 import math
-import types
 import xml.etree.ElementTree as ET
 
 import numpy as np

@@ -150,6 +150,9 @@ BAD = [
     ("dim = 2", "dim = 5", "geometry.dim"),
     ("dim = 2", 'dim = "2"', "geometry.dim"),
     ("maxh = 0.1", "maxh = 0", "geometry.maxh"),
+    ("maxh = 0.1", "maxh = 0.1\nrefine = -1", "geometry.refine"),
+    ("maxh = 0.1", "maxh = 0.1\nrefine = 7", "geometry.refine"),
+    ("maxh = 0.1", 'maxh = 0.1\nrefine = "1"', "geometry.refine"),
     ("length = 2.0", "length = -2.0", "geometry.length"),
     ("rho_fluid = 1.0", "rho_fluid = 0", "materials.rho_fluid"),
     ("rho_solid = 1.2", "rho_solid = -1.2", "materials.rho_solid"),
@@ -264,3 +267,12 @@ def test_a_solve_that_does_not_converge_stops_with_exit_3(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "step 1 " in err and "did not reach the tolerance" in err and "\n" not in err, err
     assert json.loads((out / "summary.json").read_text())["status"] == "not converged"
+
+
+def test_refine_splits_every_cell(tmp_path):
+    """``[geometry] refine = 1``: the run's mesh is the generated one refined once (4× the triangles)."""
+    from fsivsp.run import load_run_case
+    coarse = load_run_case(write_case(tmp_path)).mesh
+    fine = load_run_case(write_case(tmp_path, text=CASE.format(T=0.002, every=10).replace(
+        "maxh = 0.1", "maxh = 0.1\nrefine = 1"))).mesh
+    assert fine.ne == 4 * coarse.ne and fine.nv > coarse.nv

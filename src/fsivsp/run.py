@@ -2,8 +2,8 @@
 plots and a JSON summary, with atomic checkpoints and resume.
 
 Case file sections (all validated before any heavy work, see `load_run_case`):
-``[geometry]``, ``[materials]`` (lam/mu or young/poisson), ``[time]``, ``[discretisation]``
-(family, order, solver, curved, initial_stress, initial_velocity),
+``[geometry]`` (with ``refine``: uniform refinements), ``[materials]`` (lam/mu or young/poisson), ``[time]``,
+``[discretisation]`` (family, order, solver, tolerance, max_iterations, curved, initial_stress, initial_velocity),
 ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
 ``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
 velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
@@ -24,12 +24,14 @@ from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_ge
                    read_time, read_toml, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
-from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry
+from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
 OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk"}
 CHECKPOINT_KEYS = {"every"}
+#: ``[geometry] refine``: uniform refinements of the generated or read mesh (each multiplies the cells by 2^d)
+MAX_REFINE = 6
 
 
 class SolveDiverged(RuntimeError):
@@ -135,8 +137,13 @@ def load_run_case(path: str | Path) -> RunCase:
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh")}
+    refine = geometry.get("refine", 0)
+    if isinstance(refine, bool) or not isinstance(refine, int) or not 0 <= refine <= MAX_REFINE:
+        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
+    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh", "refine")}
     mesh = build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+    if refine:
+        mesh = refined(mesh, refine, disc.curved)
     check_boundaries(boundaries, mesh)
     return RunCase(Path(path), geometry, dim, materials, T, dt, disc, data, boundaries, output, every, mesh)
 

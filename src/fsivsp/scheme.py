@@ -14,13 +14,11 @@ or measured.
 """
 from __future__ import annotations
 
-import functools
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-import scipy.sparse as sp
 import ngsolve as ngs
 from ngsolve import InnerProduct, dx, ds
 
@@ -29,7 +27,7 @@ from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .manufactured import grad
 from .materials import Materials
-from .solvers import MAX_ITERATIONS, TOLERANCE, compact, factorise, step_solver, to_ngsolve, to_scipy_csr
+from .solvers import MAX_ITERATIONS, TOLERANCE, compact, factorise, step_solver
 from .spaces import Spaces
 
 
@@ -85,16 +83,6 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
     return gf
 
 
-def block_inverse(mass: ngs.BaseMatrix, space: ngs.FESpace) -> ngs.BaseMatrix:
-    """The inverse of the mass matrix of a discontinuous space, one dense block per cell."""
-    cells = np.array([el.dofs for el in space.Elements(ngs.VOL) if len(el.dofs) and min(el.dofs) >= 0])
-    n, size = cells.shape
-    rows = np.repeat(cells, size, axis=1).reshape(n, size, size)
-    cols = np.tile(cells, size).reshape(n, size, size)
-    blocks = np.linalg.inv(np.asarray(to_scipy_csr(mass)[rows.ravel(), cols.ravel()]).reshape(n, size, size))
-    return to_ngsolve(sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(mass.height, mass.width)))
-
-
 #: From this many free unknowns on `march` overlaps each solve with the rest of the previous step in
 #: a second thread; below, handing the work over (0.1–0.3 ms a step here) costs more than it saves
 #: (benchmarks/scheme_timings.py, paper's experiment: 4 407 unknowns 0.97 ms a step against 0.92
@@ -120,12 +108,12 @@ class BackwardEuler:
         X, dim = spaces.mixed, spaces.mesh.dim
 
         step = forms.step_matrix(spaces, materials, dt).Assemble()
-        self._matrix = step.mat
-        self.solver = step_solver(step.mat, spaces, materials, dt, solver, tolerance, max_iterations)
-        self._mass = compact(forms.velocity_mass(spaces, materials).Assemble().mat)
+        self._matrix = compact(step.mat)
+        del step
+        self.solver = step_solver(self._matrix, spaces, materials, dt, solver, tolerance, max_iterations)
         self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
-        if spaces.free_dofs() >= MARCH_THREAD_MIN_DOFS:
-            self._lagged_mass  # built here with the other operators, not in `march`'s first step
+        self._lagged_mass = compact(forms.solid_stiffness(spaces, materials, -dt**2, mass=True).Assemble().mat)
+        self._work = self._matrix.CreateColVector()
 
         self._loads = self._load_vectors()
         self._dirichlet, self._lifts = self._dirichlet_vectors()
@@ -248,22 +236,17 @@ class BackwardEuler:
         self.time, self.n = 0.0, 0
 
     def _project_offset(self) -> None:
-        """σ*_h = Π σ⁰ − M_σ⁻¹C u⁰_h (Π the L² projection (26) onto S_h), b* and ∫_S Aσ*_h:σ*_h. The
-        stress-space operators live only here, for the length of this call."""
-        spaces, offset = self.spaces, self.stress_offset
-        tau = spaces.stress.TestFunction()
-        projection = ngs.LinearForm(spaces.stress)
-        projection += InnerProduct(self.data.stress0.coefficient(0.0), tau) * dx(SOLID, bonus_intorder=4)
-        rate = forms.stress_rate(spaces, self.materials).Assemble().mat
-        load = projection.Assemble().vec
-        load.data -= rate * self.carried.vec
-        offset.vec.data = block_inverse(forms.stress_mass(spaces).Assemble().mat, spaces.stress) * load
+        """σ*_h = Π (σ⁰ − C ε(u⁰_h)) = Π σ⁰ − C ε(u⁰_h) (Π the L² projection (26) onto S_h, cell by cell; exact on
+        C ε(u⁰_h) by (18)), b* = ∫_S σ*_h:ε(w) and ∫_S Aσ*_h:σ*_h."""
+        spaces, offset, mesh = self.spaces, self.stress_offset, self.spaces.mesh
+        solid = mesh.Materials(SOLID)
+        offset.Set(self.data.stress0.coefficient(0.0) - forms.elastic_stress(self.displacement, self.materials, mesh.dim),
+                   definedon=solid, bonus_intorder=4)
         w, _ = spaces.mixed.TestFunction()
         form = ngs.LinearForm(spaces.mixed)
         form += forms.integral(InnerProduct(offset, forms.eps(w)), spaces, SOLID)
         self._offset_load.data = form.Assemble().vec
-        mesh = spaces.mesh
-        self._offset_energy = ngs.Integrate(self._compliance(offset, offset), mesh, definedon=mesh.Materials(SOLID))
+        self._offset_energy = ngs.Integrate(self._compliance(offset, offset), mesh, definedon=solid)
 
     def _projected_state(self) -> ngs.BaseVector:
         """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),
@@ -333,12 +316,6 @@ class BackwardEuler:
                     rhs[(j + 1) % 2].data += lagged_mass * solutions[j % 2]
         self._accept(solutions[steps % 2], first + steps, observe)
 
-    @functools.cached_property
-    def _lagged_mass(self) -> ngs.BaseMatrix:
-        """M − Δt² K, so that M vⁿ − Δt (b* + K uⁿ_h) = (M − Δt² K) vⁿ − Δt (b* + K uⁿ⁻¹_h). Only a threaded
-        `march` uses it, so it is built only where `march` threads."""
-        return compact(forms.solid_stiffness(self.spaces, self.materials, -self.dt**2, mass=True).Assemble().mat)
-
     def _accept(self, solution: ngs.BaseVector, n: int, observe) -> None:
         """Make step n the scheme's state: (vⁿ, pⁿ), uⁿ_h, tₙ; then ``observe``."""
         self.state.vec.data = solution
@@ -357,10 +334,12 @@ class BackwardEuler:
 
     def right_hand_side(self, time: float) -> None:
         """Step 1's right-hand side, Δt f(tₙ) + ρ vⁿ⁻¹ − Δt σⁿ⁻¹:ε(·), minus the lift of the
-        Dirichlet values vⁿ|∂Ω; the lift itself is kept in the boundary vector."""
-        self._rhs.data = self._mass * self.state.vec
+        Dirichlet values vⁿ|∂Ω; the lift itself is kept in the boundary vector. The scheme keeps
+        M − Δt² K and K (not M): ρ vⁿ⁻¹ − Δt(b* + K uⁿ⁻¹_h) = (M − Δt² K) vⁿ⁻¹ − Δt(b* + K uⁿ⁻²_h)."""
+        self._work.data = self.carried.vec - self.dt * self.state.vec   # uⁿ⁻²_h (velocity part)
+        self._rhs.data = self._lagged_mass * self.state.vec
         self._rhs.data -= self.dt * self._offset_load
-        self._rhs.data -= self.dt * (self._stiffness * self.carried.vec)
+        self._rhs.data -= self.dt * (self._stiffness * self._work)
         self._add_data(self._rhs, self._boundary, time)
 
     def _add_data(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, time: float) -> None:
@@ -390,4 +369,5 @@ class BackwardEuler:
         σⁿ_h = σ*_h + Cε(uⁿ_h): ∫_S Aσⁿ_h:σⁿ_h = ∫_S Aσ*_h:σ*_h + 2 b*·uⁿ_h + uⁿ_h·K uⁿ_h."""
         x, u = self.state.vec, self.carried.vec
         elastic = self._offset_energy + 2 * InnerProduct(self._offset_load, u) + InnerProduct(u, self._stiffness * u)
-        return 0.5 * (InnerProduct(x, self._mass * x) + elastic)
+        kinetic = InnerProduct(x, self._lagged_mass * x) + self.dt**2 * InnerProduct(x, self._stiffness * x)
+        return 0.5 * (kinetic + elastic)

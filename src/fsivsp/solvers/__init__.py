@@ -14,7 +14,7 @@ from typing import Protocol
 
 import ngsolve as ngs
 
-from .direct import (METHODS, PIVOTING_METHODS, DirectSolver, SolverError, available_methods, compact,
+from .direct import (METHODS, DirectSolver, SolverError, available_methods, compact,
                      default_method, factorise, free_mask, is_symmetric, to_ngsolve, to_scipy_csr)
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 

@@ -108,12 +108,11 @@ def to_ngsolve(matrix) -> ngs.BaseMatrix:
 
 
 def compact(matrix) -> ngs.BaseMatrix:
-    """The same operator without stored zeros. A form on a product space stores every pair of
-    dofs of an element, so e.g. the velocity mass on V_h × Q_h keeps 2.4× its nonzeros (no
-    coupling between components or with the pressure); a product costs its stored entries."""
-    reduced = to_scipy_csr(matrix)
-    reduced.eliminate_zeros()
-    return to_ngsolve(reduced)
+    """The same operator without stored zeros (NGSolve's ``DeleteZeroElements``, in place of memory). A
+    form on a product space stores every pair of dofs of an element, so e.g. the velocity mass on
+    V_h × Q_h keeps 2.4× its nonzeros (no coupling between components or with the pressure); a product
+    costs its stored entries."""
+    return matrix.DeleteZeroElements(0.0)
 
 
 def _stores_lower_triangle(matrix) -> bool:
