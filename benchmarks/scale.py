@@ -6,6 +6,7 @@ one. Each (solver, level) runs in a process of its own, so that its peak residen
 Prints a table, writes JSON and a PNG plot.
 
     python benchmarks/scale.py --levels 1-4 --steps 3 --json benchmarks/scale.json --plot benchmarks/scale.png
+    python benchmarks/scale.py --maxh 0.17 --levels 2-4 --steps 2 --direct-max 2 --tolerance 1e-8   # 2.2 million
 """
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ from pathlib import Path
 EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 
 
-def measure(level: int, solver: str, steps: int) -> dict:
+def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict:
     """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
     from fsivsp.case import load_study_case, to_study
     from fsivsp.geometry import refined
@@ -29,7 +30,12 @@ def measure(level: int, solver: str, steps: int) -> dict:
     from fsivsp.spaces import build_spaces
     from fsivsp.study import dirichlet_boundaries, manufactured_data
 
-    case = to_study(load_study_case(EXAMPLE))
+    import dataclasses
+    case = dataclasses.replace(to_study(load_study_case(EXAMPLE)), tolerance=tolerance)
+    if maxh is not None:
+        from fsivsp.geometry import build_geometry
+        coarse = build_geometry("fluid_in_solid", 3, maxh, curvature_safety=1.0)
+        case = dataclasses.replace(case, coarse_mesh=lambda: coarse)
     seconds = {}
     start = time.perf_counter()
     mesh = refined(case.coarse_mesh(), level, case.project_refinement)
@@ -40,7 +46,7 @@ def measure(level: int, solver: str, steps: int) -> dict:
     seconds["spaces"] = time.perf_counter() - start
     start = time.perf_counter()
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
-    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=solver)
+    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance)
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
@@ -53,9 +59,9 @@ def measure(level: int, solver: str, steps: int) -> dict:
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
 
 
-def child(level: int, solver: str, steps: int) -> dict | None:
+def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict | None:
     """`measure` in a fresh process (None if it failed, e.g. out of memory)."""
-    done = subprocess.run([sys.executable, __file__, "--child", f"{level}:{solver}:{steps}"],
+    done = subprocess.run([sys.executable, __file__, "--child", f"{level}:{solver}:{steps}:{maxh}:{tolerance}"],
                           capture_output=True, text=True)
     if done.returncode != 0:
         print(f"level {level} {solver}: failed ({done.returncode}): {done.stderr.strip()[-300:]}", file=sys.stderr)
@@ -90,13 +96,16 @@ def main() -> None:
     parser.add_argument("--levels", default="1-4", help="refinement levels A-B")
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--direct-max", type=int, default=3, help="the highest level the direct solver runs")
+    parser.add_argument("--maxh", type=float, default=None, help="the coarse ball's mesh size (default: the example's)")
+    parser.add_argument("--tolerance", type=float, default=1e-12, help="the iterative solver's tolerance")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--plot", type=Path, default=None)
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        level, solver, steps = args.child.split(":")
-        print(json.dumps(measure(int(level), solver, int(steps))))
+        level, solver, steps, maxh, tolerance = args.child.split(":")
+        print(json.dumps(measure(int(level), solver, int(steps), None if maxh == "None" else float(maxh),
+                                 float(tolerance))))
         return
     low, high = (int(x) for x in args.levels.split("-"))
     rows = []
@@ -104,7 +113,7 @@ def main() -> None:
         for solver in ("direct", "iterative"):
             if solver == "direct" and level > args.direct_max:
                 continue
-            row = child(level, solver, args.steps)
+            row = child(level, solver, args.steps, args.maxh, args.tolerance)
             if row is None:
                 continue
             rows.append(row)
@@ -122,7 +131,8 @@ def main() -> None:
         print(f"iterative: time per step grows like N^{growth:.2f} between the two largest sizes")
     if args.json:
         from fsivsp.report import write_json
-        write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "rows": rows})
+        write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "maxh": args.maxh,
+                               "tolerance": args.tolerance, "rows": rows})
     if args.plot:
         plot(rows, args.plot)
 

@@ -67,11 +67,11 @@ def mean_iterations(case, level, jacobi_velocity=False) -> float:
 
 def test_iterations_bounded_over_levels():
     """Mean MinRes iterations per step on levels 1 → 2 → 3 of the paper's experiment grow by less than
-    1.45 per level (measured 89.6, 113.6, 133.8: 1.27, 1.18); with the velocity block by its diagonal they
-    grow by more than 1.6 (measured 205.6, 515.2: 2.5)."""
+    1.35 per level (measured 60.8, 75.8, 81.4: 1.25, 1.07; component-wise AMG instead of the multigrid:
+    89.6, 113.6, 133.8); with the velocity block by its diagonal they grow by more than 1.6 (205.6, 515.2: 2.5)."""
     case = paper_case(1e-2, solver="iterative")
     ours = [mean_iterations(case, level) for level in (1, 2, 3)]
-    assert ours[1] / ours[0] < 1.45 and ours[2] / ours[1] < 1.45, ours
+    assert ours[1] / ours[0] < 1.35 and ours[2] / ours[1] < 1.35, ours
     jacobi = [mean_iterations(case, level, jacobi_velocity=True) for level in (1, 2)]
     assert jacobi[1] / jacobi[0] > 1.6, jacobi
     assert jacobi[1] > 1.5 * ours[1], (jacobi, ours)
@@ -101,3 +101,17 @@ def test_cli_bad_solver_options(args, field, capsys):
     assert main(["paper", "--levels", "0", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert field in err and "\n" not in err
+
+
+def test_refinement_hierarchy_is_found():
+    """The vertex counts of the levels come back from the parents of the finest mesh's vertices, and the
+    preconditioner takes the multigrid where there is a hierarchy, the component-wise AMG where not."""
+    from fsivsp.solvers.multigrid import vertex_levels
+    case = to_study(load_study_case(EXAMPLES / "fluid_in_solid_3d.toml"))
+    coarse = case.coarse_mesh()
+    counts = [refined(coarse, level, False).nv for level in range(3)]
+    assert vertex_levels(refined(coarse, 2, False))[1] == counts
+    assert vertex_levels(coarse)[1] == counts[:1]
+    iterative = dataclasses.replace(case, solver="iterative")
+    assert discretise(iterative, refined(coarse, 1, False))[0].solver.preconditioner.multigrid
+    assert not discretise(iterative, refined(coarse, 0, False))[0].solver.preconditioner.multigrid

@@ -276,3 +276,16 @@ def test_refine_splits_every_cell(tmp_path):
     fine = load_run_case(write_case(tmp_path, text=CASE.format(T=0.002, every=10).replace(
         "maxh = 0.1", "maxh = 0.1\nrefine = 1"))).mesh
     assert fine.ne == 4 * coarse.ne and fine.nv > coarse.nv
+
+
+def test_large_example_runs_on_its_coarse_mesh(tmp_path):
+    """examples/large_ball_3d.toml (1.47 million unknowns, BENCHMARKS.md) is a valid case: its coarse mesh
+    (refine = 0) runs its two steps with the iterative solver."""
+    text = (Path(__file__).parents[1] / "examples" / "large_ball_3d.toml").read_text()
+    assert "refine = 4" in text
+    out = tmp_path / "out"
+    assert main(["run", str(write_case(tmp_path, text=text.replace("refine = 4", "refine = 0"))), "--out", str(out),
+                 "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["step"] == 2 and summary["solver"]["method"] == "iterative"
+    assert summary["l2_norms"]["velocity"] > 0

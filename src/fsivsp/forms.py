@@ -56,13 +56,19 @@ def step_matrix(spaces: Spaces, mat: Materials, dt: float, **storage) -> ngs.Bil
     ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w) + λΔt² ∫_S div v div w
     − Δt ∫_F p div w − Δt ∫_F q div v. ``storage``: BilinearForm flags (symmetric, symmetric_storage)."""
     (v, p), (w, q) = spaces.mixed.TnT()
-    rho = density(mat, spaces.mesh)
     a = ngs.BilinearForm(spaces.mixed, **storage)
-    a += integral(rho * InnerProduct(v, w), spaces)
-    a += integral(2 * mat.nu * dt * InnerProduct(eps(v), eps(w)), spaces, FLUID)
-    a += integral(2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w), spaces, SOLID)
+    a += velocity_block(v, w, spaces, mat, dt)
     a += integral(-dt * p * div(w) - dt * q * div(v), spaces, FLUID)
     return a
+
+
+def velocity_block(v, w, spaces: Spaces, mat: Materials, dt: float):
+    """The velocity block A of `step_matrix`: ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w)
+    + λΔt² ∫_S div v div w (an integrand for any velocity-like trial and test functions v, w)."""
+    return (integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+            + integral(2 * mat.nu * dt * InnerProduct(eps(v), eps(w)), spaces, FLUID)
+            + integral(2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w),
+                       spaces, SOLID))
 
 
 def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:

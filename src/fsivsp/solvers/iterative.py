@@ -4,9 +4,10 @@ The step matrix is [[A, −ΔtBᵀ], [−ΔtB, 0]] with A = ρM + 2νΔt K_F + �
 converges in a number of iterations bounded independently of h if the preconditioner is the Riesz map of
 a norm in which the step is well posed (Mardal–Winther): diag(A⁻¹, S⁻¹) with S = Δt² B A⁻¹ Bᵀ.
 
-- A⁻¹ ≈ Σ_j E_j AMG(A_jj) E_jᵀ + Jacobi on the higher-order velocity dofs: NGSolve's ``h1amg`` of the
-  j-th diagonal block (`forms.velocity_component_block`) on the continuous P1 dofs of component j,
-  and the diagonal of A on the bubbles (MINI) or edge, face and cell dofs (Taylor–Hood).
+- A⁻¹ ≈ a symmetric multigrid V-cycle of the coupled P1 velocity block over the refinement hierarchy
+  (`multigrid.Multigrid`) on the vertex dofs, or without a hierarchy Σ_j E_j AMG(A_jj) E_jᵀ (NGSolve's
+  ``h1amg`` of each component's diagonal block, `forms.velocity_component_block`); plus Jacobi on the
+  higher-order velocity dofs (MINI's bubbles, Taylor–Hood's edge, face and cell dofs).
 - S⁻¹ ≈ ρ_F/Δt² L_p⁻¹ + 2ν/Δt M_p⁻¹ (Cahouet–Chabard), L_p the pressure Laplacian by ``h1amg``
   (`forms.pressure_laplacian`) and M_p⁻¹ by the diagonal of the pressure mass. L_p vanishes on the
   fluid's boundaries where the velocity is free (the interface and traction boundaries): there the
@@ -28,6 +29,7 @@ from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
 from .direct import SolverError
+from .multigrid import COARSE_MAX_DOFS, Multigrid, vertex_levels
 
 #: Default tolerance: MinRes stops when its (preconditioned) residual is below this fraction of the
 #: right-hand side's. On the paper's experiment (Δt = 1e-2, levels 0–3) 1e-12 leaves the error norms
@@ -68,18 +70,12 @@ class BlockPreconditioner:
             raise SolverError("iterative: the velocity space is not d copies of one scalar space")
         free = np.fromiter(X.FreeDofs(), dtype=bool, count=X.ndof)
         self._keep = []
-        parts = []
         higher = np.zeros(X.ndof, dtype=bool)
         for j in range(d):
-            amg, keep = _amg(mesh, lambda u, w, j=j: forms.velocity_component_block(u, w, j, mat, dt, mesh),
-                             spaces.dirichlet)
-            first = j * component
-            if not np.array_equal(np.fromiter(keep[0].FreeDofs(), dtype=bool, count=nv), free[first:first + nv]):
-                raise SolverError("iterative: the P1 dofs of the velocity do not follow the vertices")
-            embed = ngs.la.Embedding(X.ndof, ngs.IntRange(first, first + nv))
-            parts.append(embed @ amg @ embed.T)
-            higher[first + nv:first + component] = free[first + nv:first + component]
-            self._keep.append(keep)
+            higher[j * component + nv:(j + 1) * component] = free[j * component + nv:(j + 1) * component]
+        self.multigrid = 0 < len(vertex_levels(mesh)[1]) - 1 and Multigrid.coarsest_dofs(mesh) <= COARSE_MAX_DOFS
+        parts = [self._velocity_multigrid(spaces, mat, dt, free) if self.multigrid
+                 else self._velocity_amg(spaces, mat, dt, free)]
         if higher.any():
             parts.append(matrix.CreateSmoother(_bits(higher)))
         self.velocity = parts[0]
@@ -108,6 +104,47 @@ class BlockPreconditioner:
         #: S⁻¹ and A⁻¹ on X_h, and their sum, the preconditioner
         self.schur = pressure @ schur @ pressure.T
         self.mat = self.velocity + self.schur
+
+    def _velocity_multigrid(self, spaces: Spaces, mat: Materials, dt: float, free: np.ndarray) -> ngs.BaseMatrix:
+        """The coupled P1 velocity block by `Multigrid` over the refinement hierarchy, on X_h's vertex dofs."""
+        mesh, X = spaces.mesh, spaces.mixed
+        d, nv, component = mesh.dim, mesh.nv, spaces.velocity.ndof // mesh.dim
+        p1 = ngs.VectorH1(mesh, order=1, dirichlet=spaces.dirichlet)
+        form = ngs.BilinearForm(p1)
+        form += forms.velocity_block(*p1.TnT(), spaces, mat, dt)
+        form.Assemble()
+        self._check_vertices(np.fromiter(p1.FreeDofs(), dtype=bool, count=p1.ndof), free, d, nv, component)
+        cycle = Multigrid(form.mat, p1.FreeDofs(), mesh)
+        self._keep += [p1, form, cycle]
+        gather = sum((ngs.la.Embedding(p1.ndof, ngs.IntRange(j * nv, (j + 1) * nv))
+                      @ ngs.la.Embedding(X.ndof, ngs.IntRange(j * component, j * component + nv)).T for j in range(1, d)),
+                     ngs.la.Embedding(p1.ndof, ngs.IntRange(0, nv)) @ ngs.la.Embedding(X.ndof, ngs.IntRange(0, nv)).T)
+        self._keep.append(gather)
+        return gather.T @ cycle @ gather
+
+    def _velocity_amg(self, spaces: Spaces, mat: Materials, dt: float, free: np.ndarray) -> ngs.BaseMatrix:
+        """Without a refinement hierarchy: for each component, ``h1amg`` of its diagonal block
+        (`forms.velocity_component_block`) on its P1 dofs."""
+        mesh, X = spaces.mesh, spaces.mixed
+        d, nv, component = mesh.dim, mesh.nv, spaces.velocity.ndof // mesh.dim
+        blocks = None
+        for j in range(d):
+            amg, keep = _amg(mesh, lambda u, w, j=j: forms.velocity_component_block(u, w, j, mat, dt, mesh),
+                             spaces.dirichlet)
+            self._check_vertices(np.tile(np.fromiter(keep[0].FreeDofs(), dtype=bool, count=nv), d), free, d, nv,
+                                 component)
+            embed = ngs.la.Embedding(X.ndof, ngs.IntRange(j * component, j * component + nv))
+            block = embed @ amg @ embed.T
+            blocks = block if blocks is None else blocks + block
+            self._keep.append(keep)
+        return blocks
+
+    @staticmethod
+    def _check_vertices(p1_free: np.ndarray, free: np.ndarray, d: int, nv: int, component: int) -> None:
+        """The P1 space's free dofs (component-major) are X_h's free vertex dofs of the velocity."""
+        ours = np.concatenate([free[j * component:j * component + nv] for j in range(d)])
+        if not np.array_equal(p1_free, ours):
+            raise SolverError("iterative: the P1 dofs of the velocity do not follow the vertices")
 
     @staticmethod
     def _vertices(p1_operator: ngs.BaseMatrix, space: ngs.FESpace, nv: int) -> ngs.BaseMatrix:
