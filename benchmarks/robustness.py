@@ -1,0 +1,82 @@
+"""Robustness of the iterative solver: mean and largest MinRes iterations per step against the level, Δt and
+the materials (issue 12's table).
+
+Each row: the case's manufactured data on its coarse mesh refined ``level`` times, ``--steps`` steps of the
+scheme with the iterative solver at its default tolerance (no error norms).
+
+    python benchmarks/robustness.py --json benchmarks/robustness.json
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+
+from fsivsp.case import load_study_case, to_study
+from fsivsp.geometry import refined
+from fsivsp.paper import paper_case
+from fsivsp.report import write_json
+from fsivsp.scheme import BackwardEuler
+from fsivsp.spaces import build_spaces
+from fsivsp.study import dirichlet_boundaries, manufactured_data
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
+
+
+def iterations(case, level: int, steps: int) -> dict:
+    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    dirichlet = dirichlet_boundaries(mesh)
+    spaces = build_spaces(mesh, case.family, case.order, dirichlet)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
+    start = time.perf_counter()
+    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver="iterative", tolerance=case.tolerance)
+    scheme.march(steps)
+    stats = scheme.solver.statistics()["iterations"]
+    return {"dofs": spaces.free_dofs(), "mean": stats["mean"], "max": stats["max"],
+            "multigrid": scheme.solver.preconditioner.multigrid, "seconds": time.perf_counter() - start}
+
+
+def rows(max_level_2d: int, max_level_3d: int):
+    """(table, label, case, level) for every row."""
+    for dt in TIME_STEPS:
+        for level in range(max_level_2d + 1):
+            yield "levels and time steps", "paper", paper_case(dt), level
+    for example in ("fluid_in_solid_3d", "solid_in_fluid_3d", "fluid_over_solid_3d"):
+        base = to_study(load_study_case(EXAMPLES / f"{example}.toml"))
+        for dt in TIME_STEPS:
+            for level in range(max_level_3d + 1):
+                yield "levels and time steps", example, dataclasses.replace(base, dt=dt), level
+    paper = paper_case(1e-2)
+    for name, values in (("lam/mu", (1.0, 1e2, 1e4)), ("rho_solid/rho_fluid", (0.1, 1.0, 10.0)),
+                         ("nu", (1e-3, 1e-1, 1.0))):
+        for value in values:
+            m = paper.materials
+            changed = {"lam/mu": dict(lam=value * m.mu), "rho_solid/rho_fluid": dict(rho_solid=value * m.rho_fluid),
+                       "nu": dict(nu=value)}[name]
+            for level in (1, 3):
+                yield "materials", f"paper, {name} = {value:g}", \
+                    dataclasses.replace(paper, materials=dataclasses.replace(m, **changed)), level
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--max-level-2d", type=int, default=4)
+    parser.add_argument("--max-level-3d", type=int, default=3)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    records = []
+    for table, label, case, level in rows(args.max_level_2d, args.max_level_3d):
+        record = {"table": table, "case": label, "dt": case.dt, "level": level,
+                  **iterations(case, level, args.steps)}
+        records.append(record)
+        print(f"{table:22} {label:32} dt {case.dt:7.0e} level {level} dofs {record['dofs']:>7}  "
+              f"its mean {record['mean']:6.1f} max {record['max']:4d}  {record['seconds']:6.1f} s", flush=True)
+    if args.json:
+        write_json(args.json, records)
+
+
+if __name__ == "__main__":
+    main()
