@@ -135,6 +135,50 @@ def test_study_on_gmsh_equals_netgen_format(tmp_path, dim):
         assert b == pytest.approx(a, rel=1e-10, abs=1e-14)
 
 
+def test_run_on_a_gmsh_file(tmp_path):
+    """`fsivsp run` end to end on a gmsh 4.1 file (2D): the run's case with `kind = "mesh"`."""
+    mesh_file = write(to_meshio(build_geometry("fluid_over_solid", 2, 0.15)), tmp_path / "layers.msh", "41-ascii")
+    case = tmp_path / "layers.toml"
+    case.write_text(f"""
+[geometry]
+kind = "mesh"
+dim = 2
+path = "{mesh_file}"
+
+[materials]
+rho_fluid = 1.0
+rho_solid = 2.0
+nu = 0.5
+lam = 1.5
+mu = 0.75
+
+[time]
+T = 0.03
+dt = 0.01
+
+[data]
+force_fluid = ["1", "0"]
+
+[output]
+probes = [[0.5, 0.75]]
+""")
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["step"] == 3 and summary["l2_norms"]["velocity"] > 0
+    assert len(list((out / "vtk").glob("fields_*.vtu"))) >= 2
+
+
+def test_study_on_step_equals_netgen_format(tmp_path):
+    """`fsivsp study` on the STEP example gives the errors of the same mesh saved by netgen."""
+    netgen_file = tmp_path / "cad.vol"
+    build_geometry("cad", 3, 0.4, path=str(STEP)).ngmesh.Save(str(netgen_file))
+    own = study_errors(tmp_path, 3, f'kind = "mesh"\ndim = 3\npath = "{netgen_file}"', "netgen")
+    cad = study_errors(tmp_path, 3, f'kind = "cad"\ndim = 3\nmaxh = 0.4\npath = "{STEP}"', "cad")
+    assert len(own) == len(cad) == 1
+    assert cad[0] == pytest.approx(own[0], rel=1e-10, abs=1e-14)
+
+
 # --------------------------------------------------------------------------------------------
 # CAD files
 # --------------------------------------------------------------------------------------------

@@ -279,7 +279,7 @@ def test_refine_splits_every_cell(tmp_path):
 
 
 def test_large_example_runs_on_its_coarse_mesh(tmp_path):
-    """examples/large_ball_3d.toml (1.47 million unknowns, BENCHMARKS.md) is a valid case: its coarse mesh
+    """examples/large_ball_3d.toml (1.64 million unknowns, BENCHMARKS.md) is a valid case: its coarse mesh
     (refine = 0) runs its two steps with the iterative solver."""
     text = (Path(__file__).parents[1] / "examples" / "large_ball_3d.toml").read_text()
     assert "refine = 4" in text
