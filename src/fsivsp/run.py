@@ -308,7 +308,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
                 prune_checkpoints(checkpoints, keep=2)
             bar.update(1)
-            bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GB", refresh=False)
+            bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GiB", refresh=False)
             if interrupt.requested:
                 finish("interrupted")
                 raise KeyboardInterrupt
