@@ -52,6 +52,12 @@ def test_taylor_hood_2_equals_direct():
     same_errors(dataclasses.replace(case, order=2), range(0, 1))
 
 
+def test_taylor_hood_1_in_3d_equals_direct():
+    """P2 velocity in 3D: edge dofs by the diagonal, the multigrid on the vertices (the 3D examples are MINI)."""
+    case = to_study(load_study_case(EXAMPLES / "solid_in_fluid_3d.toml"))
+    same_errors(dataclasses.replace(case, family="taylor_hood", order=1), range(0, 2))
+
+
 def mean_iterations(case, level, jacobi_velocity=False) -> float:
     scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.project_refinement))
     if jacobi_velocity:  # the velocity block by its diagonal alone, the pressure block unchanged
