@@ -82,8 +82,9 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
 def solid_stiffness(spaces: Spaces, mat: Materials, scale: float = 1.0, mass: bool = False) -> ngs.BilinearForm:
     """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h, times ``scale``; with ``mass``, ∫_Ω ρ v·w + scale K.
 
-    By (18) the stress update is exact, σⁿ = σ⁰_h + M_σ⁻¹C dⁿ with dⁿ = Δt Σ_{k≤n} vᵏ, and
-    ∫_S σⁿ:ε(w) = ∫_S σ⁰_h:ε(w) + K dⁿ: the −Δt ∫_S σⁿ⁻¹:ε(w) term of step 1 without stress-space operators."""
+    By (18) the stress update is exact, σⁿ_h = σ*_h + M_σ⁻¹C uⁿ_h with the displacement uⁿ_h (5), and
+    ∫_S σⁿ_h:ε(w) = ∫_S σ*_h:ε(w) + K uⁿ_h: the −Δt ∫_S σⁿ⁻¹:ε(w) term of step 1 without stress-space
+    operators (`scheme`)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
     if mass:

@@ -267,7 +267,7 @@ class BackwardEuler:
 
     def step(self) -> None:
         """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then the stress update
-        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)), exact by (18), as dⁿ = dⁿ⁻¹ + Δt vⁿ."""
+        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)), exact by (18), as uⁿ_h = uⁿ⁻¹_h + Δt vⁿ."""
         time = (self.n + 1) * self.dt  # no accumulated round-off in tₙ = nΔt
         self.right_hand_side(time)
         self.solve()
@@ -278,7 +278,7 @@ class BackwardEuler:
         """``steps`` steps of (5.1), calling ``observe(self)`` after each one with the scheme at that step.
 
         From `MARCH_THREAD_MIN_DOFS` free unknowns on, a second thread finishes step n while this one
-        solves step n + 1: the stress update dⁿ = dⁿ⁻¹ + Δt vⁿ, ``observe`` (one call at a time
+        solves step n + 1: the stress update uⁿ_h = uⁿ⁻¹_h + Δt vⁿ, ``observe`` (one call at a time
         and in order; the last in this thread) and the part of the next right-hand side without vⁿ⁺¹
         (`_lagged_data`).
         Between two solves only the product (M − Δt² K) vⁿ⁺¹ is left. ``observe`` must not step

@@ -25,8 +25,9 @@ __all__ = [
     "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
 ]
 
-#: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension), where it is
-#: faster per run of a few hundred steps or the factorisation no longer fits (BENCHMARKS.md, "Solvers").
+#: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension). Memory decides, not
+#: time: on 535 830 unknowns of the 3D ball the factorisation took 13.4 GiB against 1.86 GiB for the whole
+#: iterative run, though its steps are 28x faster (BENCHMARKS.md, "Scale"); in 2D the fill stays small.
 AUTO_ITERATIVE_DOFS = {2: 1_000_000, 3: 150_000}
 
 #: The Taylor–Hood orders ``"auto"`` gives to the iterative solver: its preconditioner treats the velocity's

@@ -73,8 +73,9 @@ class BlockPreconditioner:
         higher = np.zeros(X.ndof, dtype=bool)
         for j in range(d):
             higher[j * component + nv:(j + 1) * component] = free[j * component + nv:(j + 1) * component]
-        self.multigrid = 0 < len(vertex_levels(mesh)[1]) - 1 and Multigrid.coarsest_dofs(mesh) <= COARSE_MAX_DOFS
-        parts = [self._velocity_multigrid(spaces, mat, dt, free) if self.multigrid
+        levels = vertex_levels(mesh)
+        self.multigrid = len(levels[1]) > 1 and d * levels[1][0] <= COARSE_MAX_DOFS
+        parts = [self._velocity_multigrid(spaces, mat, dt, free, levels) if self.multigrid
                  else self._velocity_amg(spaces, mat, dt, free)]
         if higher.any():
             parts.append(matrix.CreateSmoother(_bits(higher)))
@@ -105,8 +106,10 @@ class BlockPreconditioner:
         self.schur = pressure @ schur @ pressure.T
         self.mat = self.velocity + self.schur
 
-    def _velocity_multigrid(self, spaces: Spaces, mat: Materials, dt: float, free: np.ndarray) -> ngs.BaseMatrix:
-        """The coupled P1 velocity block by `Multigrid` over the refinement hierarchy, on X_h's vertex dofs."""
+    def _velocity_multigrid(self, spaces: Spaces, mat: Materials, dt: float, free: np.ndarray,
+                            levels: tuple[np.ndarray, list[int]]) -> ngs.BaseMatrix:
+        """The coupled P1 velocity block by `Multigrid` over the refinement hierarchy ``levels``
+        (`multigrid.vertex_levels`), on X_h's vertex dofs."""
         mesh, X = spaces.mesh, spaces.mixed
         d, nv, component = mesh.dim, mesh.nv, spaces.velocity.ndof // mesh.dim
         p1 = ngs.VectorH1(mesh, order=1, dirichlet=spaces.dirichlet)
@@ -114,7 +117,7 @@ class BlockPreconditioner:
         form += forms.velocity_block(*p1.TnT(), spaces, mat, dt)
         form.Assemble()
         self._check_vertices(np.fromiter(p1.FreeDofs(), dtype=bool, count=p1.ndof), free, d, nv, component)
-        cycle = Multigrid(form.mat, p1.FreeDofs(), mesh)
+        cycle = Multigrid(form.mat, p1.FreeDofs(), *levels)
         self._keep += [p1, form, cycle]
         gather = sum((ngs.la.Embedding(p1.ndof, ngs.IntRange(j * nv, (j + 1) * nv))
                       @ ngs.la.Embedding(X.ndof, ngs.IntRange(j * component, j * component + nv)).T for j in range(1, d)),

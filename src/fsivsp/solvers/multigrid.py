@@ -49,12 +49,12 @@ def _prolongation(parents: np.ndarray, coarse: int, fine: int, dim: int, free_fi
 
 
 class Multigrid(ngs.BaseMatrix):
-    """A symmetric V-cycle for ``matrix`` (the P1 velocity block, component-major, ``freedofs`` free)."""
+    """A symmetric V-cycle for ``matrix`` (the P1 velocity block, component-major, ``freedofs`` free) over the
+    hierarchy ``parents``, ``counts`` of `vertex_levels`."""
 
-    def __init__(self, matrix: ngs.BaseMatrix, freedofs: ngs.BitArray, mesh: ngs.Mesh):
+    def __init__(self, matrix: ngs.BaseMatrix, freedofs: ngs.BitArray, parents: np.ndarray, counts: list[int]):
         super().__init__()
-        parents, counts = vertex_levels(mesh)
-        dim = mesh.dim
+        dim = matrix.height // counts[-1]
         free = np.fromiter(freedofs, dtype=bool, count=matrix.height)
         vertex_free = free.reshape(dim, -1)
         self.matrices, self.prolongations, self.restrictions, self.smoothers = [matrix], [], [], []
@@ -70,12 +70,7 @@ class Multigrid(ngs.BaseMatrix):
         self.smoothers = [a.CreateSmoother(f) for a, f in zip(self.matrices[:-1], self.frees[:-1])]
         self.coarse = self.matrices[-1].Inverse(self.frees[-1], inverse="sparsecholesky")
         self.levels = len(self.matrices)
-        self._vectors = [(a.CreateColVector(), a.CreateColVector(), a.CreateColVector()) for a in self.matrices]
-
-    @staticmethod
-    def coarsest_dofs(mesh: ngs.Mesh) -> int:
-        """The unknowns of the coarsest level (d times its vertices)."""
-        return mesh.dim * vertex_levels(mesh)[1][0]
+        self._vectors = [(a.CreateColVector(), a.CreateColVector()) for a in self.matrices]
 
     def _cycle(self, level: int, rhs: ngs.BaseVector, out: ngs.BaseVector) -> None:
         if level == self.levels - 1:
@@ -83,7 +78,7 @@ class Multigrid(ngs.BaseMatrix):
             return
         matrix, smoother = self.matrices[level], self.smoothers[level]
         residual = self._vectors[level][0]
-        coarse_rhs, coarse_out, _ = self._vectors[level + 1]
+        coarse_rhs, coarse_out = self._vectors[level + 1]
         out[:] = 0.0
         for _ in range(SMOOTHING):
             smoother.Smooth(out, rhs)
