@@ -244,7 +244,11 @@ def iterative(text: str, limit: str = "") -> str:
 
 def test_iterative_resume_equals_uninterrupted(tmp_path):
     """The iterative solver starts each step from the state before it, which a checkpoint restores:
-    a run continued from step 20 ends bit for bit where an uninterrupted one does."""
+    a run continued from step 20 ends where an uninterrupted one does, to round-off. Not bit for bit:
+    NGSolve's ``h1amg`` rounds differently from one process to the next (measured on this case: 7 entries
+    of one application in ~16 000, 1 ulp each, in 9 of 16 processes; the final fields then differ by
+    5e-16 relative), so two uninterrupted runs need not agree bit for bit either. The bound, 1e-13, is
+    below what a lost warm start costs: the first step after the resume started from zero ends 4e-12 away."""
     reference, out = tmp_path / "reference", tmp_path / "resumed"
     assert main(["run", str(write_case(tmp_path, text=iterative(CASE.format(T=0.002, every=10)))),
                  "--out", str(reference), "--quiet"]) == 0
@@ -257,7 +261,8 @@ def test_iterative_resume_equals_uninterrupted(tmp_path):
     assert summary["solver"]["iterations"]["max"] >= summary["solver"]["iterations"]["mean"] > 0
     ours, theirs = final_fields(out), final_fields(reference)
     for name in theirs:
-        assert np.array_equal(ours[name], theirs[name]), name
+        scale = np.abs(theirs[name]).max()
+        assert np.abs(ours[name] - theirs[name]).max() <= 1e-13 * scale, name
 
 
 def test_a_solve_that_does_not_converge_stops_with_exit_3(tmp_path, capsys):
