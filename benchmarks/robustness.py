@@ -17,7 +17,7 @@ from fsivsp.case import load_study_case, to_study
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json
-from fsivsp.scheme import BackwardEuler
+from fsivsp.scheme import Scheme
 from fsivsp.spaces import build_spaces
 from fsivsp.study import dirichlet_boundaries, manufactured_data
 
@@ -31,7 +31,7 @@ def iterations(case, level: int, steps: int) -> dict:
     spaces = build_spaces(mesh, case.family, case.order, dirichlet)
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
     start = time.perf_counter()
-    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver="iterative", tolerance=case.tolerance)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver="iterative", tolerance=case.tolerance)
     scheme.march(steps)
     stats = scheme.solver.statistics()["iterations"]
     return {"dofs": spaces.free_dofs(), "mean": stats["mean"], "max": stats["max"],

@@ -26,7 +26,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
     from fsivsp.case import load_study_case, to_study
     from fsivsp.geometry import refined
-    from fsivsp.scheme import BackwardEuler
+    from fsivsp.scheme import Scheme
     from fsivsp.spaces import build_spaces
     from fsivsp.study import dirichlet_boundaries, manufactured_data
 
@@ -46,7 +46,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     seconds["spaces"] = time.perf_counter() - start
     start = time.perf_counter()
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
-    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance)
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

@@ -16,7 +16,7 @@ def mesh():
 def make_scheme(mesh, dt=1e-2, materials=None):
     spaces = fsivsp.build_spaces(mesh, "mini", dirichlet="solid_wall")
     bump = fsivsp.Field(parse_vector(["sin(pi*x/2.5)*sin(pi*y/0.41)", "0"], "velocity0", 2))
-    return fsivsp.BackwardEuler(spaces, materials or fsivsp.Materials(), fsivsp.Data(velocity0=bump, displacement0=bump),
+    return fsivsp.Scheme(spaces, materials or fsivsp.Materials(), fsivsp.Data(velocity0=bump, displacement0=bump),
                                 dt=dt)
 
 

@@ -26,7 +26,7 @@ def make_scheme(mesh, dt=1e-2):
     spaces = fsivsp.build_spaces(mesh, "mini", dirichlet="solid_wall")
     bump = fsivsp.Field(parse_vector(["sin(pi*x/2.5)*sin(pi*y/0.41)", "0"], "velocity0", 2))
     data = fsivsp.Data(velocity0=bump, displacement0=bump)
-    return fsivsp.BackwardEuler(spaces, fsivsp.Materials(lam=2.0, mu=0.5), data, dt=dt)
+    return fsivsp.Scheme(spaces, fsivsp.Materials(lam=2.0, mu=0.5), data, dt=dt)
 
 
 @pytest.fixture

@@ -9,13 +9,13 @@ from .geometry import paper_channel, refined
 from .manufactured import ExactSolution, ManufacturedError
 from .materials import Materials
 from .paper import paper_case, reference_table
-from .scheme import BackwardEuler, Data
+from .scheme import Scheme, Data
 from .spaces import Spaces, build_spaces
 from .study import Case, manufactured_data, run_level, study
 
 __version__ = "0.1.0"
 __all__ = [
-    "BackwardEuler", "Case", "Data", "ExactSolution", "ExpressionError", "Field", "ManufacturedError",
+    "Scheme", "Case", "Data", "ExactSolution", "ExpressionError", "Field", "ManufacturedError",
     "Materials", "Spaces", "build_spaces", "manufactured_data", "paper_case", "paper_channel", "parse",
     "parse_vector", "reference_table", "refined", "run_level", "study",
 ]

@@ -15,12 +15,13 @@ from typing import Any
 from .materials import Materials
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import MAX_ITERATIONS, TOLERANCE, solver_names
+from .timeschemes import BDF2, SCHEMES, Theta, time_scheme
 from .spaces import FAMILIES
 
 SECTIONS = {
     "geometry": None,  # free-form parameters, checked by the geometry builder
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
-    "time": {"T", "dt"},
+    "time": {"T", "dt", "scheme", "theta"},
     "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
                        "curved"},
     "exact": {"velocity", "pressure", "displacement"},
@@ -139,13 +140,22 @@ def read_discretisation(table: dict) -> Discretisation:
     return Discretisation(family, order, initial, velocity, solver, curved, tolerance, limit)
 
 
-def read_time(table: dict) -> tuple[float, float]:
+def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
+    """T, Δt and the time scheme (`timeschemes`: ``scheme``, default backward Euler; ``theta`` with "theta")."""
     check_keys(table, SECTIONS["time"], "time")
     T = number(table, "T", "time", minimum=0)
     dt = number(table, "dt", "time", minimum=0)
     if dt > T:
         raise CaseError(f"time.dt: expected a time step <= time.T = {T:g}, got {dt:g}")
-    return T, dt
+    name = table.get("scheme", "backward_euler")
+    if name not in SCHEMES:
+        raise CaseError(f"time.scheme: expected one of {', '.join(SCHEMES)}, got {name!r}")
+    theta = number(table, "theta", "time") if "theta" in table else None
+    if theta is not None and name != "theta":
+        raise CaseError(f'time.theta: only with time.scheme = "theta", got time.scheme = {name!r}')
+    if theta is not None and not 0.5 <= theta <= 1:
+        raise CaseError(f"time.theta: expected a number in [0.5, 1], got {theta:g}")
+    return T, dt, time_scheme(name, theta)
 
 
 @dataclass
@@ -158,6 +168,7 @@ class CaseFile:
     materials: Materials
     T: float
     dt: float
+    time_scheme: Theta | BDF2
     discretisation: Discretisation
 
 
@@ -186,7 +197,7 @@ def load_study_case(path: str | Path) -> StudyCase:
     check_keys(doc, SECTIONS, "")
     geometry, dim = read_geometry(section(doc, "geometry"))
     materials = read_materials(section(doc, "materials"), dim)
-    T, dt = read_time(section(doc, "time"))
+    T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False))
     exact_table = section(doc, "exact")
     check_keys(exact_table, SECTIONS["exact"], "exact")
@@ -197,7 +208,7 @@ def load_study_case(path: str | Path) -> StudyCase:
         exact = ExactSolution.parse(exact_table["velocity"], exact_table["pressure"], exact_table["displacement"], dim)
     except (ExpressionError, ManufacturedError) as error:
         raise CaseError(str(error)) from None
-    return StudyCase(Path(path), geometry, dim, materials, T, dt, disc, exact)
+    return StudyCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, exact)
 
 
 def to_study(case: StudyCase):
@@ -216,5 +227,5 @@ def to_study(case: StudyCase):
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
         initial_velocity=disc.initial_velocity,
         project_refinement=disc.curved, solver=disc.solver, curved=disc.curved, tolerance=disc.tolerance,
-        max_iterations=disc.max_iterations,
+        max_iterations=disc.max_iterations, time_scheme=case.time_scheme,
     )

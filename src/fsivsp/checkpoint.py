@@ -1,7 +1,8 @@
-"""Checkpoints of a `BackwardEuler` run, for restarting long production runs.
+"""Checkpoints of a `Scheme` run, for restarting long production runs.
 
 A checkpoint is a ``.npz`` file holding the step number, the time, the coefficient
-vectors of the state (vⁿ, pⁿ) and the displacement uⁿ_h (which gives σⁿ_h, see `scheme`), a
+vectors of the state (vⁿ, pⁿ) and the displacement uⁿ_h (which gives σⁿ_h, see `scheme`) with the
+time scheme's history (`Scheme.history`: BDF2's level n − 1, the θ-scheme's multiplier), a
 fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, the
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
 uninterrupted one bit for bit.
@@ -24,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-FORMAT = 2  # 2: the displacement instead of the stress (lean operators)
+FORMAT = 3  # 2: the displacement instead of the stress (lean operators); 3: time schemes
 PREFIX = "checkpoint"
 
 
@@ -46,8 +47,8 @@ def _mesh_hash(mesh) -> str:
 
 def fingerprint(scheme) -> dict:
     """What a checkpoint must share with the run that loads it: the spaces (family, order,
-    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt and the
-    materials."""
+    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt, the time scheme
+    and the materials."""
     spaces = scheme.spaces
     mesh = spaces.mesh
     return {
@@ -63,12 +64,13 @@ def fingerprint(scheme) -> dict:
         "ndof_stress": spaces.stress.ndof,
         "ndof_mixed": spaces.mixed.ndof,
         "dt": float(scheme.dt),
+        "time_scheme": {"name": scheme.time_scheme.name, "theta": float(scheme.time_scheme.theta)},
         "materials": {k: float(v) for k, v in scheme.materials.as_dict().items()},
     }
 
 
 def _vectors(scheme) -> dict[str, np.ndarray]:
-    return {"state": scheme.state.vec.FV().NumPy(), "displacement": scheme.carried.vec.FV().NumPy()}
+    return {name: vector.FV().NumPy() for name, vector in scheme.history().items()}
 
 
 def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path:

@@ -2,10 +2,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing
 import os
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from . import __version__
@@ -13,6 +15,7 @@ from .case import CaseError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
+from .timeschemes import SCHEMES
 
 MAX_LEVEL = 6
 
@@ -70,6 +73,40 @@ def positive_int(text: str) -> int:
     return int(text)
 
 
+def dt_list(text: str) -> list[float]:
+    """'0.1,0.05,0.025': positive, strictly decreasing time steps."""
+    try:
+        steps = [float(item) for item in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+    if any(not math.isfinite(dt) or dt <= 0 for dt in steps) or any(b >= a for a, b in zip(steps, steps[1:])):
+        raise argparse.ArgumentTypeError(f"expected positive, strictly decreasing time steps, got {text!r}")
+    return steps
+
+
+def theta_arg(text: str) -> float:
+    value = positive_float(text)
+    if not 0.5 <= value <= 1:
+        raise argparse.ArgumentTypeError(f"expected a number in [0.5, 1], got {text!r}")
+    return value
+
+
+def scheme_options(parser: argparse.ArgumentParser) -> None:
+    """--scheme and --theta (`timeschemes`); without them the case's (paper: backward Euler)."""
+    parser.add_argument("--scheme", choices=SCHEMES, default=None,
+                        help="time scheme (default: the case's [time] scheme; backward_euler)")
+    parser.add_argument("--theta", type=theta_arg, default=None, help="θ of --scheme theta (default 0.5)")
+
+
+def chosen_scheme(args, default):
+    """The time scheme of --scheme/--theta, or ``default``."""
+    from .timeschemes import time_scheme
+
+    if args.theta is not None and args.scheme != "theta":
+        raise UsageError("--theta: only with --scheme theta")
+    return default if args.scheme is None else time_scheme(args.scheme, args.theta)
+
+
 def build_parser() -> Parser:
     parser = Parser(prog="fsivsp", description="Velocity–stress–pressure finite elements for linear FSI "
                     "(González & Selgas, Appl. Numer. Math. 123, 2018).")
@@ -97,8 +134,9 @@ def build_parser() -> Parser:
                        "or a direct method (pardiso, umfpack, sparsecholesky, scipy)")
     paper.add_argument("--tolerance", type=tolerance_arg, default=TOLERANCE,
                        help=f"the iterative solver's relative tolerance (default {TOLERANCE:g})")
+    scheme_options(paper)
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
-    paper.add_argument("--out", type=Path, default=Path("paper-report"), metavar="DIR",
+    paper.add_argument("--out", type=Path, default=None, metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
     paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
@@ -110,7 +148,12 @@ def build_parser() -> Parser:
                                 "the paper's norms and rates (76) generalised to d dimensions.")
     study.add_argument("case", type=Path, metavar="CASE.toml", help="case file with an [exact] section")
     study.add_argument("--levels", type=levels_arg, default=range(0, 3), help="refinement levels, 'A-B' or 'A' (default 0-2)")
-    study.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
+    study.add_argument("--dt", type=dt_list, default=None, metavar="LIST",
+                       help="a study in time instead: comma-separated, decreasing time steps on refinement --level")
+    study.add_argument("--level", type=int, default=0, help="the refinement level of a study in time (default 0)")
+    scheme_options(study)
+    study.add_argument("--json", type=Path, default=None, metavar="PATH",
+                       help="write one record per level (per time step with --dt) to PATH")
     study.add_argument("--quiet", action="store_true", help="no progress bars")
     study.set_defaults(handler=study_command)
 
@@ -137,8 +180,11 @@ def build_parser() -> Parser:
 
 
 def paper_options(args) -> dict:
+    from .timeschemes import Theta
+
     return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
-            "project_refinement": args.project, "solver": args.solver, "tolerance": args.tolerance}
+            "project_refinement": args.project, "solver": args.solver, "tolerance": args.tolerance,
+            "time_scheme": chosen_scheme(args, Theta())}
 
 
 def paper_job(job: tuple[float, int, dict]) -> dict:
@@ -163,6 +209,9 @@ def paper_command(args) -> int:
     if args.solver not in solver_names():
         raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(solver_names())}, got {args.solver!r}")
     options = paper_options(args)
+    scheme = options["time_scheme"]
+    label = {"backward_euler": "backward Euler", "bdf2": "BDF2"}.get(scheme.name, f"the θ-scheme (θ = {scheme.theta:g})")
+    out = args.out or Path("paper-report" if scheme.name == "backward_euler" else f"paper-report-{scheme.name}")
     if not args.all:
         case = paper_case(args.dt, **options)
         records = study(case, args.levels, quiet=args.quiet)
@@ -174,7 +223,8 @@ def paper_command(args) -> int:
         if len(records) > 1:
             print(f"\nΔt = {args.dt:g}: rates (76), the paper's in parentheses (Tables 5–8)")
             print(rate_table(records, reference))
-        print(f"\nestimated backward-Euler floor of e(σ) for this Δt: {stress_time_floor(args.dt):.4f}")
+        print(f"\nestimated backward-Euler floor of e(σ) for this Δt: {stress_time_floor(args.dt):.4f}"
+              + ("" if scheme.name == "backward_euler" else f" (this run: {scheme.name})"))
         if args.json:
             write_json(args.json, records)
         return 0
@@ -186,7 +236,7 @@ def paper_command(args) -> int:
     wall = time.perf_counter() - start
     series, references = {}, {}
     lines = ["# fsivsp: the experiment of Section 5.3", "",
-             f"MINI element, backward Euler, T = 1; initial stress from the {args.initial_stress}; "
+             f"MINI element, {label}, T = 1; initial stress from the {args.initial_stress}; "
              f"refinement {'with' if args.project else 'without'} projection onto the circle. "
              f"Wall time {wall:.0f} s on {args.jobs} process(es).", "",
              "Errors with the paper's in parentheses; dofs in the paper's convention.", ""]
@@ -198,29 +248,35 @@ def paper_command(args) -> int:
         series[label], references[label] = records, reference
         lines += [f"## {label}", "", error_table(records, reference, markdown=True), "",
                   rate_table(records, reference, markdown=True), "",
-                  f"Estimated time-error floor of e(σ): {stress_time_floor(dt):.4f}.", ""]
+                  f"Estimated backward-Euler time-error floor of e(σ): {stress_time_floor(dt):.4f}.", ""]
     lines += ["![convergence](convergence.png)", ""]
-    args.out.mkdir(parents=True, exist_ok=True)
-    convergence_plot(series, references, args.out / "convergence.png")
-    write_atomic(args.out / "report.md", "\n".join(lines))
+    out.mkdir(parents=True, exist_ok=True)
+    convergence_plot(series, references, out / "convergence.png")
+    write_atomic(out / "report.md", "\n".join(lines))
     all_records = [r for label in series for r in series[label]]
-    write_json(args.json or args.out / "results.json", all_records)
+    write_json(args.json or out / "results.json", all_records)
     print("\n".join(lines))
-    print(f"\nwrote {args.out / 'report.md'}, {args.out / 'convergence.png'}")
+    print(f"\nwrote {out / 'report.md'}, {out / 'convergence.png'}")
     return 0
 
 
 def study_command(args) -> int:
     from .case import load_study_case, to_study
-    from .report import error_table, rate_table, write_json
-    from .study import study
+    from .report import error_table, rate_table, time_table, write_json
+    from .study import study, time_study
 
     case = to_study(load_study_case(args.case))
-    records = study(case, args.levels, quiet=args.quiet)
-    label = f"{case.name}: {case.family}{'' if case.family == 'mini' else case.order}, dt = {case.dt:g}, T = {case.T:g}"
-    print(f"{label}\n{error_table(records)}")
-    if len(records) > 1:
-        print(f"\nrates (76)\n{rate_table(records)}")
+    case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme))
+    element = f"{case.family}{'' if case.family == 'mini' else case.order}"
+    if args.dt is not None:
+        records = time_study(case, args.level, args.dt, quiet=args.quiet)
+        print(f"{case.name}: {element}, {case.time_scheme.name}, level {args.level}, T = {case.T:g}\n"
+              f"{time_table(records)}")
+    else:
+        records = study(case, args.levels, quiet=args.quiet)
+        print(f"{case.name}: {element}, {case.time_scheme.name}, dt = {case.dt:g}, T = {case.T:g}\n{error_table(records)}")
+        if len(records) > 1:
+            print(f"\nrates (76)\n{rate_table(records)}")
     if args.json:
         write_json(args.json, records)
     return 0

@@ -79,17 +79,35 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     return a
 
 
-def solid_stiffness(spaces: Spaces, mat: Materials, scale: float = 1.0, mass: bool = False) -> ngs.BilinearForm:
-    """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h, times ``scale``; with ``mass``, ∫_Ω ρ v·w + scale K.
+def solid_stiffness(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
+    """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h.
 
     By (18) the stress update is exact, σⁿ_h = σ*_h + M_σ⁻¹C uⁿ_h with the displacement uⁿ_h (5), and
-    ∫_S σⁿ_h:ε(w) = ∫_S σ*_h:ε(w) + K uⁿ_h: the −Δt ∫_S σⁿ⁻¹:ε(w) term of step 1 without stress-space
+    ∫_S σⁿ_h:ε(w) = ∫_S σ*_h:ε(w) + K uⁿ_h: the ∫_S σ:ε(w) terms of step 1 without stress-space
     operators (`scheme`)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
-    if mass:
-        a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
-    a += integral(scale * InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
+    a += integral(InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
+    return a
+
+
+def fluid_viscous(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
+    """K_F = 2ν ∫_F ε(v):ε(w) on X_h (the θ-scheme's lagged viscous term and its energy)."""
+    (v, _), (w, _) = spaces.mixed.TnT()
+    a = ngs.BilinearForm(spaces.mixed)
+    a += integral(2 * mat.nu * InnerProduct(eps(v), eps(w)), spaces, FLUID)
+    return a
+
+
+def lagged_operator(spaces: Spaces, mat: Materials, stiffness: float, viscous: float) -> ngs.BilinearForm:
+    """R = ∫_Ω ρ v·w − ``stiffness`` K − ``viscous`` K_F on X_h: the operator a time scheme applies to the
+    velocity history (`timeschemes`; backward Euler: ρM − Δt² K)."""
+    (v, _), (w, _) = spaces.mixed.TnT()
+    a = ngs.BilinearForm(spaces.mixed)
+    a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+    a += integral(-stiffness * InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
+    if viscous:
+        a += integral(-viscous * 2 * mat.nu * InnerProduct(eps(v), eps(w)), spaces, FLUID)
     return a
 
 

@@ -68,7 +68,7 @@ def von_mises(stress: ngs.CoefficientFunction, materials, dim: int) -> ngs.Coeff
 
 
 def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStress]:
-    """The fields of a `BackwardEuler` for `VTKSeries`, and the `SolidStress` to refresh before writing.
+    """The fields of a `Scheme` for `VTKSeries`, and the `SolidStress` to refresh before writing.
 
     ``velocity`` (d components), ``pressure`` (the fluid pressure, 0 in the solid),
     ``stress`` (the solid stress σ as d·d row-major components, 0 in the fluid),

@@ -12,6 +12,7 @@ from .manufactured import ExactSolution
 from .materials import Materials
 from .solvers import TOLERANCE
 from .study import Case
+from .timeschemes import BDF2, Theta
 
 #: Exact solution (75); the displacement u = ∫ v dt + u⁰ with u⁰ = v(0), so that σ_S n = σ_F n on the circle.
 VELOCITY = ["2*x*y*exp(t)", "(x**2 - y**2)*exp(t)"]
@@ -24,8 +25,9 @@ T_FINAL = 1.0
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
                solver: str | None = None, initial_velocity: str = "interpolation",
-               tolerance: float = TOLERANCE) -> Case:
-    """The experiment of Section 5.3 with MINI elements and time step ``dt``."""
+               tolerance: float = TOLERANCE, time_scheme: Theta | BDF2 = Theta()) -> Case:
+    """The experiment of Section 5.3 with MINI elements and time step ``dt`` (backward Euler, or
+    ``time_scheme``)."""
     return Case(
         name=f"paper dt={dt:g}",
         coarse_mesh=paper_channel,
@@ -38,6 +40,7 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         project_refinement=project_refinement,
         solver=solver,
         tolerance=tolerance,
+        time_scheme=time_scheme,
     )
 
 

@@ -56,6 +56,15 @@ def rate_table(records: list[dict], reference: list[dict] | None = None, markdow
     return _layout(head, rows, markdown)
 
 
+def time_table(records: list[dict], markdown: bool = False) -> str:
+    """Errors per Δt and the rates in Δt (`study.time_rates`) of a time-convergence study."""
+    keys = quantities(records)
+    head = ["dt"] + [HEADERS[k] for k in keys] + [HEADERS[k].replace("e(", "r(") for k in keys]
+    rows = [[f"{rec['dt']:g}"] + [f"{rec['errors'][k]:.3e}" for k in keys]
+            + ["-" if rec["rates"][k] is None else f"{rec['rates'][k]:.3f}" for k in keys] for rec in records]
+    return _layout(head, rows, markdown)
+
+
 def _layout(head: list[str], rows: list[list[str]], markdown: bool) -> str:
     if markdown:
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]

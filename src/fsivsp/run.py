@@ -127,7 +127,7 @@ def load_run_case(path: str | Path) -> RunCase:
     check_keys(doc, RUN_SECTIONS, "")
     geometry, dim = read_geometry(section(doc, "geometry"))
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
-    T, dt = read_time(section(doc, "time"))
+    T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False))
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
@@ -145,7 +145,7 @@ def load_run_case(path: str | Path) -> RunCase:
     if refine:
         mesh = refined(mesh, refine, disc.curved)
     check_boundaries(boundaries, mesh)
-    return RunCase(Path(path), geometry, dim, materials, T, dt, disc, data, boundaries, output, every, mesh)
+    return RunCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh)
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
@@ -162,7 +162,7 @@ def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Fiel
 
 def build_scheme(case: RunCase):
     from .manufactured import elastic_stress
-    from .scheme import BackwardEuler, Data
+    from .scheme import Scheme, Data
     from .spaces import base_order, build_spaces
 
     velocity, traction = boundary_conditions(case)
@@ -183,8 +183,8 @@ def build_scheme(case: RunCase):
         boundary_velocity=velocity,
         boundary_traction=traction,
     )
-    return BackwardEuler(spaces, case.materials, data, case.dt, solver=disc.solver, tolerance=disc.tolerance,
-                         max_iterations=disc.max_iterations)
+    return Scheme(spaces, case.materials, data, case.dt, solver=disc.solver, tolerance=disc.tolerance,
+                  max_iterations=disc.max_iterations, time_scheme=case.time_scheme)
 
 
 class _Interrupt:

@@ -1,13 +1,13 @@
-"""The fully discrete scheme (5.1): backward Euler, one saddle-point solve per step,
-then the pointwise stress update.
+"""The fully discrete scheme: one saddle-point solve per step, then the pointwise stress update —
+backward Euler (5.1), the θ-scheme or BDF2 (`timeschemes`), all with one step matrix per run.
 
 Everything that depends only on the mesh and Δt — the step-1 matrix and its solver,
 the mass and stiffness operators, the load vectors of time-separable data — is built
-once in `BackwardEuler.__init__`; `step` only applies operators to vectors.
+once in `Scheme.__init__`; `step` only applies operators to vectors.
 
 Lean operators: the stress update is linear and exact by (18), so with the displacement
-uⁿ_h = I_h u⁰ + Δt Σ_{k≤n} vᵏ (5), σⁿ_h = σ*_h + C ε(uⁿ_h), where σ*_h = σ⁰_h − C ε(I_h u⁰) is zero unless
-σ⁰_h is the L² projection (26). The term −Δt ∫_S σⁿ⁻¹:ε(w) of step 1 is −Δt (b* + K uⁿ⁻¹_h), with
+uⁿ_h (backward Euler: uⁿ_h = I_h u⁰ + Δt Σ_{k≤n} vᵏ (5)), σⁿ_h = σ*_h + C ε(uⁿ_h), where σ*_h = σ⁰_h − C ε(I_h u⁰)
+is zero unless σ⁰_h is the L² projection (26). The terms ∫_S σ:ε(w) of step 1 are b* + K u_h, with
 b* = ∫_S σ*_h:ε(w) and K the solid stiffness on the velocity's pattern (`forms.solid_stiffness`). The
 scheme keeps no stress-space matrix: σⁿ_h is a CoefficientFunction, formed per cell where it is written
 or measured.
@@ -27,8 +27,9 @@ from .fields import Field, TimeVector
 from .geometry import FLUID, INTERFACE, SOLID, interface_normal
 from .manufactured import grad
 from .materials import Materials
-from .solvers import MAX_ITERATIONS, TOLERANCE, compact, factorise, step_solver
+from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
+from .timeschemes import BDF2, Theta
 
 
 #: How σ⁰_h and v⁰_h are built (see `Data`): the paper's experiment first, then the analysis' projections.
@@ -90,29 +91,42 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
 MARCH_THREAD_MIN_DOFS = 10_000
 
 
-class BackwardEuler:
-    """Backward Euler for (10) on V_h × Q_h × S_h with the decoupled stress update (5.1).
+#: The Richardson iteration of a start step with another τ (`Scheme._start_solve`) stops when its
+#: correction is below this fraction of the solution (contraction 0.28 per iteration for BDF2's start).
+START_TOLERANCE = 1e-12
+START_MAX_ITERATIONS = 100
+
+
+class Scheme:
+    """A time scheme (`timeschemes`: backward Euler (5.1) by default) for (10) on V_h × Q_h × S_h with the
+    decoupled stress update.
 
     The state is (vⁿ, pⁿ) (``state``) and the displacement uⁿ_h (``displacement``, the velocity part of
     ``carried``); ``stress`` is σⁿ_h = σ*_h + λ div uⁿ_h I + 2μ ε(uⁿ_h), a CoefficientFunction (σ*_h: see the
-    module's docstring; a GridFunction on S_h only where σ⁰_h is a projection, else None)."""
+    module's docstring; a GridFunction on S_h only where σ⁰_h is a projection, else None). BDF2 also keeps
+    the level before (``previous``: (vⁿ⁻¹, ·) and (uⁿ⁻¹, 0)); the θ-scheme and BDF2 keep the step's raw
+    solution (vⁿ, mⁿ) with the multiplier mⁿ (``solution``), from which pⁿ is formed."""
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
                  solver: str | None = None, tolerance: float = TOLERANCE,
-                 max_iterations: int = MAX_ITERATIONS):
+                 max_iterations: int = MAX_ITERATIONS, time_scheme: Theta | BDF2 = Theta()):
         """``solver``: a name `solvers.step_solver` accepts (None: ``"auto"``); ``tolerance`` and
-        ``max_iterations`` are the iterative solver's."""
+        ``max_iterations`` are the iterative solver's; ``time_scheme``: `timeschemes.time_scheme`."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
+        self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         X, dim = spaces.mixed, spaces.mesh.dim
 
-        step = forms.step_matrix(spaces, materials, dt).Assemble()
+        step = forms.step_matrix(spaces, materials, self.tau).Assemble()
         self._matrix = compact(step.mat)
         del step
-        self.solver = step_solver(self._matrix, spaces, materials, dt, solver, tolerance, max_iterations)
+        self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations)
         self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
-        self._lagged_mass = compact(forms.solid_stiffness(spaces, materials, -dt**2, mass=True).Assemble().mat)
+        self._lagged_coefficients = time_scheme.lagged(dt)
+        self._lagged = compact(forms.lagged_operator(spaces, materials, *self._lagged_coefficients).Assemble().mat)
+        self._viscous = compact(forms.fluid_viscous(spaces, materials).Assemble().mat) \
+            if self._lagged_coefficients[1] else None
         self._work = self._matrix.CreateColVector()
 
         self._loads = self._load_vectors()
@@ -122,6 +136,9 @@ class BackwardEuler:
         self.carried = ngs.GridFunction(X)     # (uⁿ_h, 0)
         self.velocity, self.pressure = self.state.components
         self.displacement = self.carried.components[0]
+        self.previous = (self.state.vec.CreateVector(), self.state.vec.CreateVector()) \
+            if time_scheme.levels == 2 else None
+        self.solution = ngs.GridFunction(X) if time_scheme.name != "backward_euler" else None
         self.stress_offset = ngs.GridFunction(spaces.stress) if data.stress0 is not None else None   # σ*_h
         self.stress = forms.elastic_stress(self.displacement, materials, dim)
         if self.stress_offset is not None:
@@ -129,6 +146,9 @@ class BackwardEuler:
         self.time, self.n = 0.0, 0
         self._rhs = self.state.vec.CreateVector()
         self._boundary = self.state.vec.CreateVector()
+        self._raw = self.state.vec.CreateVector()
+        self._explicit = ngs.GridFunction(X)    # ũⁿ
+        self._lag_work = (self.state.vec.CreateVector(), ngs.GridFunction(X))
         self.initialise()
 
     # -- precomputation -------------------------------------------------------------
@@ -233,7 +253,23 @@ class BackwardEuler:
         self._offset_energy = 0.0
         if self.stress_offset is not None:
             self._project_offset()
+        if self.previous is not None:
+            self.previous[0].data = self.state.vec
+            self.previous[1].data = self.carried.vec
+        if self.solution is not None:
+            self._initial_solution()
         self.time, self.n = 0.0, 0
+
+    def _initial_solution(self) -> None:
+        """(v⁰, m⁰) with θ m⁰ = p⁰_h, the pressure the first step's extrapolation (`Theta.pressure`) starts
+        from: the projection's (22) or the interpolant of p⁰; without p⁰ the first step reports p̂¹."""
+        d = self.data
+        self.solution.vec.data = self.state.vec
+        self._initial_pressure = d.pressure0 is not None
+        pressure = self.solution.components[1]
+        if d.pressure0 is not None and d.initial_velocity != "projection":
+            pressure.Set(d.pressure0.coefficient(0.0))
+        pressure.vec.data *= 1.0 / self.time_scheme.start(0).theta
 
     def _project_offset(self) -> None:
         """σ*_h = Π (σ⁰ − C ε(u⁰_h)) = Π σ⁰ − C ε(u⁰_h) (Π the L² projection (26) onto S_h, cell by cell; exact on
@@ -266,25 +302,31 @@ class BackwardEuler:
         return state
 
     def step(self) -> None:
-        """One step of (5.1): (vⁿ, pⁿ) from the saddle-point system, then the stress update
-        σⁿ = σⁿ⁻¹ + Δt (λ div vⁿ I + 2μ ε(vⁿ)), exact by (18), as uⁿ_h = uⁿ⁻¹_h + Δt vⁿ."""
-        time = (self.n + 1) * self.dt  # no accumulated round-off in tₙ = nΔt
-        self.right_hand_side(time)
-        self.solve()
-        self.update_stress()
-        self.time, self.n = time, self.n + 1
+        """One step: (vⁿ, mⁿ) from the saddle-point system, then pⁿ and the stress update uⁿ_h = ũⁿ + τ vⁿ."""
+        n, current = self.n + 1, self.time_scheme.start(self.n)
+        if current.tau(self.dt) != self.tau:
+            self._start_solve(current, n, self._raw)
+        else:
+            self._right_hand_side(current, n, self._rhs, self._boundary)
+            self.solver.solve_step(self._rhs, self._boundary, self._raw, self._guess())
+        self._accept(self._raw, n, current, None)
 
-    def march(self, steps: int, observe: Callable[[BackwardEuler], None] | None = None) -> None:
-        """``steps`` steps of (5.1), calling ``observe(self)`` after each one with the scheme at that step.
+    def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:
+        """``steps`` steps, calling ``observe(self)`` after each one with the scheme at that step.
 
         From `MARCH_THREAD_MIN_DOFS` free unknowns on, a second thread finishes step n while this one
-        solves step n + 1: the stress update uⁿ_h = uⁿ⁻¹_h + Δt vⁿ, ``observe`` (one call at a time
-        and in order; the last in this thread) and the part of the next right-hand side without vⁿ⁺¹
-        (`_lagged_data`).
-        Between two solves only the product (M − Δt² K) vⁿ⁺¹ is left. ``observe`` must not step
+        solves step n + 1: the stress update, ``observe`` (one call at a time and in order; the last in this
+        thread) and the part of the next right-hand side without vⁿ⁺¹ (`_lagged_data`).
+        Between two solves only the product R vⁿ⁺¹ is left. ``observe`` must not step
         the scheme. The results equal `step` repeated up to round-off (7e-14 relative after 100 steps of the
         paper's experiment, level 4). Under NGSolve's TaskManager the two threads compete for its workers:
-        `step` is faster there (100 steps at 17 931 unknowns: 0.33 s against 0.43 s)."""
+        `step` is faster there (100 steps at 17 931 unknowns: 0.33 s against 0.43 s). A start step with
+        another τ (BDF2's first) is taken by `step`."""
+        while steps > 0 and self.time_scheme.start(self.n).tau(self.dt) != self.tau:
+            self.step()
+            steps -= 1
+            if observe is not None:
+                observe(self)
         if steps <= 0:
             return
         if self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS:
@@ -297,77 +339,160 @@ class BackwardEuler:
         solutions = (self._rhs.CreateVector(), self._rhs.CreateVector())
         rhs = (self._rhs.CreateVector(), self._rhs)
         boundaries = (self._boundary.CreateVector(), self._boundary)
-        first, lagged_mass = self.n, self._lagged_mass
-        self.right_hand_side((first + 1) * self.dt)
+        first, scheme, lagged = self.n, self.time_scheme, self._lagged
+        newest = scheme.velocity(self.dt)[1]   # the coefficient of vⁿ in aⁿ⁺¹
+        self._right_hand_side(scheme, first + 1, rhs[1], boundaries[1])
 
         def finish_previous(j: int) -> None:
             if j > 1:
-                self._accept(solutions[(j - 1) % 2], first + j - 1, observe)
+                self._accept(solutions[(j - 1) % 2], first + j - 1, scheme, observe)
             if j < steps:
-                self._lagged_data(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], (first + j + 1) * self.dt)
+                self._lagged_data(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], first + j + 1)
 
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
             for j in range(1, steps + 1):
                 finished = second.submit(finish_previous, j)
-                self.solve(solutions[j % 2], rhs[j % 2], boundaries[j % 2],
-                           self.state.vec if j == 1 else solutions[(j - 1) % 2])
+                self.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2],
+                                       self._guess() if j == 1 else solutions[(j - 1) % 2])
                 finished.result()
                 if j < steps:
-                    rhs[(j + 1) % 2].data += lagged_mass * solutions[j % 2]
-        self._accept(solutions[steps % 2], first + steps, observe)
+                    rhs[(j + 1) % 2].data += newest * (lagged * solutions[j % 2])
+        self._accept(solutions[steps % 2], first + steps, scheme, observe)
 
-    def _accept(self, solution: ngs.BaseVector, n: int, observe) -> None:
-        """Make step n the scheme's state: (vⁿ, pⁿ), uⁿ_h, tₙ; then ``observe``."""
-        self.state.vec.data = solution
-        self.update_stress()
+    def history(self) -> dict[str, ngs.BaseVector]:
+        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores)."""
+        vectors = {"state": self.state.vec, "displacement": self.carried.vec}
+        if self.previous is not None:
+            vectors.update(previous_state=self.previous[0], previous_displacement=self.previous[1])
+        if self.solution is not None:
+            vectors["solution"] = self.solution.vec
+        return vectors
+
+    def _guess(self) -> ngs.BaseVector:
+        """Where an iterative solver starts: the last raw solution (vⁿ, mⁿ)."""
+        return self.state.vec if self.solution is None else self.solution.vec
+
+    def _combine(self, coefficients, out: ngs.BaseVector) -> None:
+        """out = Σ c_k h_k over the history h = (uⁿ, vⁿ, uⁿ⁻¹, vⁿ⁻¹) (``previous`` for the older level)."""
+        history = (self.carried.vec, self.state.vec) + (self.previous[::-1] if self.previous else ())
+        terms = [(c, h) for c, h in zip(coefficients, history) if c]
+        out.data = terms[0][0] * terms[0][1]
+        for c, h in terms[1:]:
+            out.data += c * h
+
+    def _accept(self, raw: ngs.BaseVector, n: int, current, observe) -> None:
+        """Make step n the scheme's state: vⁿ, pⁿ = α mⁿ + β p̂ⁿ⁻¹ (`Theta.pressure`), uⁿ_h = ũⁿ + τ vⁿ
+        with ũⁿ from the history before it (`timeschemes`), the history shifted; tₙ; then ``observe``."""
+        self._combine(current.explicit(self.dt), self._explicit.vec)
+        if self.previous is not None:
+            self.previous[0].data = self.state.vec
+            self.previous[1].data = self.carried.vec
+        self.state.vec.data = raw
+        if self.solution is not None:
+            alpha, beta = current.pressure(n == 1)
+            if n == 1 and not self._initial_pressure:
+                self.solution.vec.data = raw    # p⁰ unknown: p̂⁰ := p̂¹, the first step reports p̂¹
+            self.pressure.vec.data = alpha * self.pressure.vec + (beta * current.theta) * self.solution.components[1].vec
+            self.solution.vec.data = raw
+        self.displacement.vec.data = self._explicit.components[0].vec + current.tau(self.dt) * self.velocity.vec
         self.time, self.n = n * self.dt, n
         if observe is not None:
             observe(self)
 
-    def _lagged_data(self, out: ngs.BaseVector, boundary: ngs.BaseVector, time: float) -> None:
-        """Into ``out`` the right-hand side at ``time`` but for its term (M − Δt² K) v of the step
-        before: −Δt (b* + K u_h) with the current u_h, the loads and the lifts; the Dirichlet values into
-        ``boundary``."""
-        out.data = -self.dt * self._offset_load
-        out.data -= self.dt * (self._stiffness * self.carried.vec)
-        self._add_data(out, boundary, time)
+    def _right_hand_side(self, current, n: int, out: ngs.BaseVector, boundary: ngs.BaseVector,
+                         lagged: ngs.BaseMatrix | None = None, lift: bool = True) -> None:
+        """Step n's right-hand side, R aⁿ − ω (b* + K eⁿ) + Σ w_j f(t_j) (`timeschemes`), minus the lift of
+        the Dirichlet values vⁿ|∂Ω (unless not ``lift``), which go into ``boundary``."""
+        dt, work = self.dt, self._work
+        self._combine(current.velocity(dt), work)
+        out.data = (self._lagged if lagged is None else lagged) * work
+        self._combine(current.stiffness(dt), work)
+        weight = current.weight(dt)
+        out.data -= weight * self._offset_load
+        out.data -= weight * (self._stiffness * work)
+        self._add_data(out, boundary, current.loads(n, dt), n * dt, lift)
 
-    def right_hand_side(self, time: float) -> None:
-        """Step 1's right-hand side, Δt f(tₙ) + ρ vⁿ⁻¹ − Δt σⁿ⁻¹:ε(·), minus the lift of the
-        Dirichlet values vⁿ|∂Ω; the lift itself is kept in the boundary vector. The scheme keeps
-        M − Δt² K and K (not M): ρ vⁿ⁻¹ − Δt(b* + K uⁿ⁻¹_h) = (M − Δt² K) vⁿ⁻¹ − Δt(b* + K uⁿ⁻²_h)."""
-        self._work.data = self.carried.vec - self.dt * self.state.vec   # uⁿ⁻²_h (velocity part)
-        self._rhs.data = self._lagged_mass * self.state.vec
-        self._rhs.data -= self.dt * self._offset_load
-        self._rhs.data -= self.dt * (self._stiffness * self._work)
-        self._add_data(self._rhs, self._boundary, time)
+    def _lagged_data(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int) -> None:
+        """Into ``out`` step n's right-hand side but for its term in vⁿ⁻¹, while vⁿ⁻¹ is being solved for
+        (the history holds level n − 2): with uⁿ⁻¹ = ũⁿ⁻¹ + τ vⁿ⁻¹ the term K eⁿ does not see vⁿ⁻¹
+        (e_u τ + e_v = 0), only R aⁿ does. The Dirichlet values into ``boundary``."""
+        scheme, dt = self.time_scheme, self.dt
+        work, explicit = self._lag_work
+        self._combine(scheme.explicit(dt), explicit.vec)                  # ũⁿ⁻¹
+        e = scheme.stiffness(dt)
+        work.data = e[0] * explicit.vec
+        for c, h in zip(e[2:], (self.carried.vec, self.state.vec)):
+            if c:
+                work.data += c * h
+        weight = scheme.weight(dt)
+        out.data = -weight * self._offset_load
+        out.data -= weight * (self._stiffness * work)
+        a = scheme.velocity(dt)
+        if a[3]:
+            out.data += a[3] * (self._lagged * self.state.vec)
+        self._add_data(out, boundary, scheme.loads(n, dt), n * dt)
 
-    def _add_data(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, time: float) -> None:
-        """rhs += Δt f(time) − A g(time); boundary = g(time), the Dirichlet values."""
-        for load in self._loads:
-            load.add_to(rhs, time, self.dt)
-        for lift in self._lifts:
-            lift.add_to(rhs, time, -1.0)
+    def _add_data(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, loads: list[tuple[float, float]],
+                  time: float, lift: bool = True) -> None:
+        """rhs += Σ w_j f(t_j) − A g(time) (the lift, if ``lift``); boundary = g(time), the Dirichlet values."""
+        for when, weight in loads:
+            for load in self._loads:
+                load.add_to(rhs, when, weight)
+        if lift:
+            for values in self._lifts:
+                values.add_to(rhs, time, -1.0)
         boundary[:] = 0.0
         for values in self._dirichlet:
             values.add_to(boundary, time)
 
-    def solve(self, out: ngs.BaseVector | None = None, rhs: ngs.BaseVector | None = None,
-              boundary: ngs.BaseVector | None = None, previous: ngs.BaseVector | None = None) -> None:
-        """(vⁿ, pⁿ) = lift + A_ff⁻¹ rhs with the solver built once (``previous``, the step before, starts an
-        iterative solver); by default from the vectors of `right_hand_side` into the state."""
-        out = self.state.vec if out is None else out
-        self.solver.solve_step(self._rhs if rhs is None else rhs, self._boundary if boundary is None else boundary,
-                               out, self.state.vec if previous is None else previous)
+    def _start_solve(self, current, n: int, out: ngs.BaseVector) -> None:
+        """Step n of ``current``, whose τ' differs from the run's τ (BDF2's Crank–Nicolson start): its
+        matrix A(τ') and operator R' are assembled for this step only and A(τ') x = b is solved by Richardson
+        x ← x + ω D A(τ)⁻¹ D (b − A(τ') x) with the run's solver, D scaling the pressure by τ/τ' so that D A(τ') D
+        has A(τ)'s constraint. Its eigenvalues against A(τ) lie in [r², 1], r = τ'/τ < 1 (the velocity block
+        on the discrete kernel, 1 elsewhere), so ω = 2/(1 + r²) contracts by (1 − r²)/(1 + r²) (0.28 for BDF2)."""
+        spaces, mat, dt = self.spaces, self.materials, self.dt
+        tau = current.tau(dt)
+        matrix = compact(forms.step_matrix(spaces, mat, tau).Assemble().mat)
+        lagged = compact(forms.lagged_operator(spaces, mat, *current.lagged(dt)).Assemble().mat)
+        self._right_hand_side(current, n, self._rhs, self._boundary, lagged, lift=False)
+        free = ngs.Projector(spaces.mixed.FreeDofs(), True)
+        out.data = self._boundary + free * self._guess()
+        residual, correction = out.CreateVector(), out.CreateVector()
+        zero = out.CreateVector()
+        zero[:] = 0.0
+        pressure = slice(spaces.velocity.ndof, spaces.mixed.ndof)
+        scale, ratio = self.tau / tau, (tau / self.tau) ** 2
+        omega = 2 / (min(1.0, ratio) + max(1.0, ratio))
+        for _ in range(START_MAX_ITERATIONS):
+            residual.data = self._rhs - matrix * out
+            residual.data = free * residual
+            residual.FV().NumPy()[pressure] *= scale
+            self.solver.solve_step(residual, zero, correction, None)
+            correction.FV().NumPy()[pressure] *= scale
+            out.data += omega * correction
+            if omega * ngs.Norm(correction) <= START_TOLERANCE * ngs.Norm(out):
+                return
+        raise SolverError(f"the start step ({type(current).__name__} {current.name}, tau {tau:g}) did not "
+                          f"converge in {START_MAX_ITERATIONS} Richardson iterations")
 
-    def update_stress(self) -> None:
-        """Step 2 of (5.1), exact by (18), as the displacement's update (5): uⁿ_h = uⁿ⁻¹_h + Δt vⁿ."""
-        self.displacement.vec.data += self.dt * self.velocity.vec
+    def _energy(self, x: ngs.BaseVector, u: ngs.BaseVector) -> float:
+        """½∫ρ|v|² + ½∫_S Aσ:σ of a velocity x and σ = σ*_h + Cε(u): ∫_S Aσ:σ = ∫_S Aσ*_h:σ*_h + 2 b*·u + u·Ku and
+        ∫ρ|v|² = v·(R + sK + cK_F)v."""
+        s, c = self._lagged_coefficients
+        elastic = self._offset_energy + 2 * InnerProduct(self._offset_load, u) + InnerProduct(u, self._stiffness * u)
+        kinetic = InnerProduct(x, self._lagged * x) + s * InnerProduct(x, self._stiffness * x)
+        if self._viscous is not None:
+            kinetic += c * InnerProduct(x, self._viscous * x)
+        return 0.5 * (kinetic + elastic)
 
     def energy(self) -> float:
-        """½∫ρ|vⁿ|² + ½∫_S Aσⁿ_h:σⁿ_h; non-increasing when f = 0 and the boundary is at rest. With
-        σⁿ_h = σ*_h + Cε(uⁿ_h): ∫_S Aσⁿ_h:σⁿ_h = ∫_S Aσ*_h:σ*_h + 2 b*·uⁿ_h + uⁿ_h·K uⁿ_h."""
-        x, u = self.state.vec, self.carried.vec
-        elastic = self._offset_energy + 2 * InnerProduct(self._offset_load, u) + InnerProduct(u, self._stiffness * u)
-        kinetic = InnerProduct(x, self._lagged_mass * x) + self.dt**2 * InnerProduct(x, self._stiffness * x)
-        return 0.5 * (kinetic + elastic)
+        """The scheme's stable norm of (vⁿ, σⁿ_h), non-increasing when f = 0 and the boundary is at rest: the
+        energy ½∫ρ|vⁿ|² + ½∫_S Aσⁿ_h:σⁿ_h (θ-scheme; conserved up to the viscous dissipation at θ = 1/2) or
+        BDF2's G-norm ½(E(Uⁿ) + E(2Uⁿ − Uⁿ⁻¹)), U = (v, σ)."""
+        if self.previous is None or self.n == 0:
+            return self._energy(self.state.vec, self.carried.vec)
+        x, u = self._lag_work[0].CreateVector(), self._lag_work[0].CreateVector()
+        x.data = 2 * self.state.vec - self.previous[0]
+        u.data = 2 * self.carried.vec - self.previous[1]
+        return 0.5 * (self._energy(self.state.vec, self.carried.vec) + self._energy(x, u))

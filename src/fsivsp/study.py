@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import ngsolve as ngs
@@ -15,9 +15,10 @@ from .manufactured import ExactSolution
 from .materials import Materials
 from .forms import elastic_stress
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_motions
-from .scheme import INITIAL_STRESS, BackwardEuler, Data
+from .scheme import INITIAL_STRESS, Scheme, Data
 from .solvers import MAX_ITERATIONS, TOLERANCE
 from .spaces import Spaces, base_order, build_spaces
+from .timeschemes import BDF2, Theta
 
 
 @dataclass
@@ -39,6 +40,7 @@ class Case:
     curved: bool = False
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
+    time_scheme: Theta | BDF2 = Theta()
 
     @property
     def steps(self) -> int:
@@ -74,7 +76,7 @@ class Errors:
     The unknowns of X_h = V_h × Q_h share one Gram product per evaluation (`NormGroup`); σ_h = σ*_h + Cε(u_h)
     is measured on the scheme's displacement u_h (Gram matrix of Cε on the solid, `ErrorNorm` with an offset)."""
 
-    def __init__(self, scheme: BackwardEuler, exact: ExactSolution):
+    def __init__(self, scheme: Scheme, exact: ExactSolution):
         spaces, mat = scheme.spaces, scheme.materials
         d = spaces.mesh.dim
         intorder, bonus = self.intorder(spaces), spaces.bonus_intorder
@@ -96,7 +98,7 @@ class Errors:
         """‖p − p_h‖_{L²(Ω_F)} alone, for X_h's coefficient vectors."""
         return ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, cls.intorder(spaces), spaces.bonus_intorder)
 
-    def __call__(self, scheme: BackwardEuler) -> dict[str, float]:
+    def __call__(self, scheme: Scheme) -> dict[str, float]:
         errors = self.mixed(scheme.state.vec, scheme.time)
         errors["sigma"] = self.stress(scheme.carried.vec, scheme.time)
         return errors
@@ -107,7 +109,7 @@ def paper_dofs(counts: dict[str, int]) -> int:
     return 2 * (counts["vertices"] - counts["boundary_vertices"]) + 2 * counts["fluid_cells"] + counts["fluid_vertices"]
 
 
-def discretise(case: Case, mesh: ngs.Mesh) -> tuple[BackwardEuler, Errors]:
+def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
     check_regions(mesh)
     if case.curved:
@@ -115,8 +117,8 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[BackwardEuler, Errors]:
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
-    scheme = BackwardEuler(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
-                           max_iterations=case.max_iterations)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
+                    max_iterations=case.max_iterations, time_scheme=case.time_scheme)
     return scheme, Errors(scheme, case.exact)
 
 
@@ -128,7 +130,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
     setup = clock.perf_counter() - start
     squares: dict[str, float] = {}
 
-    def accumulate(scheme: BackwardEuler) -> None:
+    def accumulate(scheme: Scheme) -> None:
         for name, error in errors_at(scheme).items():
             squares[name] = squares.get(name, 0.0) + case.dt * error**2
         bar.update(1)
@@ -191,4 +193,33 @@ def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
         mesh = refined(coarse, level, project=case.project_refinement)
         records.append(run_level(case, mesh, level, quiet))
     rates(records, coarse.dim)
+    return records
+
+
+def time_rates(records: list[dict]) -> None:
+    """Add the rate in Δt, r = log(e_coarse/e_fine) / log(Δt_coarse/Δt_fine), to each record (None on the first)."""
+    previous = None
+    for record in records:
+        if previous is None:
+            record["rates"] = dict.fromkeys(record["errors"])
+        else:
+            ratio = math.log(previous["dt"] / record["dt"])
+            record["rates"] = {
+                name: (math.log(previous["errors"][name] / e) / ratio if e > 0 and previous["errors"][name] > 0 else None)
+                for name, e in record["errors"].items()
+            }
+        previous = record
+
+
+def time_study(case: Case, level: int, steps: list[float], quiet: bool = True) -> list[dict]:
+    """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing)."""
+    if not steps or any(dt <= 0 for dt in steps) or any(b >= a for a, b in zip(steps, steps[1:])):
+        raise ValueError(f"dt: expected positive, strictly decreasing time steps, got {steps}")
+    mesh = refined(case.coarse_mesh(), level, project=case.project_refinement)
+    records = []
+    for dt in tqdm(steps, desc=case.name, disable=quiet, unit="dt"):
+        record = run_level(replace(case, dt=dt), mesh, level, quiet)
+        record["dt"] = dt
+        records.append(record)
+    time_rates(records)
     return records
