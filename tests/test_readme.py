@@ -25,6 +25,9 @@ RUN, PARSE = "run", "parse"
 COMMANDS = {
     "fsivsp paper --dt 1e-2 --levels 0-2": RUN,
     "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-1": RUN,
+    "fsivsp study examples/time_convergence_2d.toml --dt 0.1,0.05,0.025 --scheme bdf2": RUN,
+    "fsivsp study examples/time_convergence_2d.toml --dt 0.1,0.05,0.025,0.0125 --scheme theta --json time.json": PARSE,
+    "fsivsp paper --all --scheme bdf2": PARSE,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d": RUN,
     "fsivsp matrix --readme docs/verification.md": PARSE,
     "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-3 --json study.json": RUN,

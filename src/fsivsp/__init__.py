@@ -11,11 +11,12 @@ from .materials import Materials
 from .paper import paper_case, reference_table
 from .scheme import Scheme, Data
 from .spaces import Spaces, build_spaces
-from .study import Case, manufactured_data, run_level, study
+from .study import Case, manufactured_data, run_level, study, time_study
+from .timeschemes import time_scheme
 
 __version__ = "0.1.0"
 __all__ = [
     "Scheme", "Case", "Data", "ExactSolution", "ExpressionError", "Field", "ManufacturedError",
     "Materials", "Spaces", "build_spaces", "manufactured_data", "paper_case", "paper_channel", "parse",
-    "parse_vector", "reference_table", "refined", "run_level", "study",
+    "parse_vector", "reference_table", "refined", "run_level", "study", "time_scheme", "time_study",
 ]

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from . import __version__
 from .case import CaseError
+from .checkpoint import CheckpointError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
@@ -304,16 +305,26 @@ def matrix_command(args) -> int:
     from tqdm.auto import tqdm
 
     from .report import write_atomic, write_json
-    from .verification import TABLE, markdown, run, worst
+    from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 
     entries = [e for e in TABLE if args.slow or not e.slow]
-    results, records = [], []
-    for entry in tqdm(entries, disable=args.quiet, unit="entry"):
-        rates, levels = run(entry)
-        results.append((entry, rates))
-        records.append({"entry": entry.label, "levels": list(entry.levels), "expected": entry.expected,
-                        "rates": rates, "passed": worst(rates) >= entry.expected, "records": levels})
-    table = markdown(results)
+    time_entries = [e for e in TIME_TABLE if args.slow or not e.slow]
+    results, time_results, records = [], [], []
+    with tqdm(total=len(entries) + len(time_entries), disable=args.quiet, unit="entry") as bar:
+        for entry in entries:
+            rates, levels = run(entry)
+            results.append((entry, rates))
+            records.append({"entry": entry.label, "levels": list(entry.levels), "expected": entry.expected,
+                            "rates": rates, "passed": worst(rates) >= entry.expected, "records": levels})
+            bar.update(1)
+        for entry in time_entries:
+            rates, steps = run_time(entry)
+            time_results.append((entry, rates))
+            records.append({"entry": entry.label, "dt": list(TIME_STEPS), "expected": entry.order, "rates": rates,
+                            "passed": all(abs(r - entry.order) <= entry.tolerance for k, r in rates.items() if k != "total"),
+                            "records": steps})
+            bar.update(1)
+    table = markdown(results) + "\n\nRates in Δt (last pair of time steps, level 0):\n\n" + time_markdown(time_results)
     print(table)
     if args.markdown:
         write_atomic(args.markdown, table + "\n")
@@ -345,7 +356,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parser.parse_args(argv)
         return args.handler(args)
-    except (UsageError, CaseError, GeometryError) as error:
+    except (UsageError, CaseError, GeometryError, CheckpointError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except NotConverged as error:

@@ -2,7 +2,8 @@
 
 Each entry runs the manufactured case ``examples/<configuration>_<d>d.toml`` (v independent
 of t and u linear in t, so backward Euler adds no time error) with the entry's element on
-three uniformly refined meshes, and fits the rate (76) by least squares.
+three uniformly refined meshes, and fits the rate (76) by least squares. The time schemes have a
+table of their own (`TIME_TABLE`): rates in Δt on the last pair of time steps.
 """
 from __future__ import annotations
 
@@ -73,6 +74,62 @@ SHORT_OF_EXPECTED = {
                               "MINI's pressure next to a traction-like interface, pre-asymptotic up to level 4 "
                               "(tests/test_mini_traction.py: the traction problem reaches rate 1.12 on level 5)",
 }
+
+
+@dataclasses.dataclass(frozen=True)
+class TimeEntry:
+    """A study in time: ``examples/time_convergence_<d>d.toml`` with the configuration's geometry, on level 0,
+    at the time steps `TIME_STEPS`; the exact fields are in the spaces, so the error is the scheme's alone."""
+
+    scheme: str
+    dim: int
+    configuration: str
+    slow: bool = False
+
+    @property
+    def order(self) -> int:
+        return 1 if self.scheme == "backward_euler" else 2
+
+    @property
+    def tolerance(self) -> float:
+        """|r − order| allowed on the last pair of time steps: 0.1 for backward Euler, 0.15 else."""
+        return 0.1 if self.order == 1 else 0.15
+
+    @property
+    def label(self) -> str:
+        return f"{self.scheme}-{self.dim}d-{self.configuration}"
+
+
+TIME_STEPS = (0.1, 0.05, 0.025, 0.0125)
+TIME_SCHEMES = ("backward_euler", "theta", "bdf2")
+TIME_TABLE = [TimeEntry(scheme, 2, configuration) for configuration in CONFIGURATIONS for scheme in TIME_SCHEMES] + \
+             [TimeEntry(scheme, 3, "fluid_over_solid") for scheme in TIME_SCHEMES]
+
+
+def run_time(entry: TimeEntry, examples: Path = EXAMPLES) -> tuple[dict[str, float], list[dict]]:
+    """The rates in Δt of the last pair of time steps (θ = 1/2 for "theta") and the per-Δt records."""
+    from .case import load_study_case, to_study
+    from .study import time_study
+    from .timeschemes import time_scheme
+
+    case_file = load_study_case(examples / f"time_convergence_{entry.dim}d.toml")
+    case_file.geometry["kind"] = entry.configuration
+    case = dataclasses.replace(to_study(case_file), time_scheme=time_scheme(entry.scheme))
+    records = time_study(case, 0, list(TIME_STEPS))
+    return records[-1]["rates"], records
+
+
+def time_markdown(results: list[tuple[TimeEntry, dict[str, float]]]) -> str:
+    """The rates in Δt as a Markdown table (each unknown; velocity: the smallest component's)."""
+    head = ("| scheme | d | configuration | Δt | expected | v | p | σ |\n"
+            "|---|---|---|---|---|---|---|---|")
+    rows = []
+    for entry, rates in results:
+        velocity = min(v for k, v in rates.items() if k.startswith("v"))
+        rows.append(f"| {entry.scheme} | {entry.dim} | {entry.configuration} | {TIME_STEPS[-2]:g}→{TIME_STEPS[-1]:g} | "
+                    f"{entry.order} ± {entry.tolerance:g} | " + " | ".join(f"{r:.2f}" for r in (velocity, rates["p"], rates["sigma"]))
+                    + " |")
+    return "\n".join([head] + rows)
 
 
 def fitted_rates(records: list[dict], dim: int) -> dict[str, float]:
