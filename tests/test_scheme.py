@@ -113,13 +113,19 @@ def threaded(monkeypatch):
     monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
 
 
-def test_the_step_matrix_is_factorised_once(spaces, monkeypatch, threaded):
-    """The time loop applies precomputed operators only: no assembly, no factorisation."""
-    scheme = Scheme(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
+def record_assembly(monkeypatch) -> list[str]:
+    """From now on, assemblies and factorisations are not done but listed."""
     calls = []
     monkeypatch.setattr(ngs.BilinearForm, "Assemble", lambda *a, **k: calls.append("assemble"))
     monkeypatch.setattr(ngs.LinearForm, "Assemble", lambda *a, **k: calls.append("assemble load"))
     monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
+    return calls
+
+
+def test_the_step_matrix_is_factorised_once(spaces, monkeypatch, threaded):
+    """The time loop applies precomputed operators only: no assembly, no factorisation."""
+    scheme = Scheme(spaces, Materials(), Data(velocity0=bump(), displacement0=bump()), dt=1e-2)
+    calls = record_assembly(monkeypatch)
     for _ in range(3):
         scheme.step()
     scheme.march(3)

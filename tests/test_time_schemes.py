@@ -19,7 +19,7 @@ from fsivsp.study import discretise
 from fsivsp.timeschemes import BDF2, Theta, time_scheme
 
 from test_run import CASE, final_fields, write_case
-from test_scheme import same_state
+from test_scheme import record_assembly, same_state
 
 
 @pytest.fixture(scope="module")
@@ -92,9 +92,7 @@ def test_no_assembly_or_factorisation_after_the_start(layers, monkeypatch, name)
     monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
     scheme = released(layers, time_scheme(name))
     scheme.step()
-    calls = []
-    monkeypatch.setattr(ngs.BilinearForm, "Assemble", lambda *a, **k: calls.append("assemble"))
-    monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
+    calls = record_assembly(monkeypatch)
     for _ in range(3):
         scheme.step()
     scheme.march(3)

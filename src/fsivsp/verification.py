@@ -121,15 +121,20 @@ def run_time(entry: TimeEntry, examples: Path = EXAMPLES) -> tuple[dict[str, flo
 
 def time_markdown(results: list[tuple[TimeEntry, dict[str, float]]]) -> str:
     """The rates in Δt as a Markdown table (each unknown; velocity: the smallest component's)."""
-    head = ("| scheme | d | configuration | Δt | expected | v | p | σ |\n"
-            "|---|---|---|---|---|---|---|---|")
-    rows = []
-    for entry, rates in results:
-        velocity = min(v for k, v in rates.items() if k.startswith("v"))
-        rows.append(f"| {entry.scheme} | {entry.dim} | {entry.configuration} | {TIME_STEPS[-2]:g}→{TIME_STEPS[-1]:g} | "
-                    f"{entry.order} ± {entry.tolerance:g} | " + " | ".join(f"{r:.2f}" for r in (velocity, rates["p"], rates["sigma"]))
-                    + " |")
-    return "\n".join([head] + rows)
+    steps = f"{TIME_STEPS[-2]:g}→{TIME_STEPS[-1]:g}"
+    return _table(["scheme", "d", "configuration", "Δt", "expected", "v", "p", "σ"],
+                  [[entry.scheme, entry.dim, entry.configuration, steps, f"{entry.order} ± {entry.tolerance:g}"]
+                   + [f"{r:.2f}" for r in _unknowns(rates)] for entry, rates in results])
+
+
+def _unknowns(rates: dict[str, float]) -> list[float]:
+    """(v, p, σ): the velocity's smallest component."""
+    return [min(v for k, v in rates.items() if k.startswith("v")), rates["p"], rates["sigma"]]
+
+
+def _table(head: list[str], rows: list[list]) -> str:
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    return "\n".join(lines + ["| " + " | ".join(map(str, row)) + " |" for row in rows])
 
 
 def fitted_rates(records: list[dict], dim: int) -> dict[str, float]:
@@ -155,17 +160,13 @@ def run(entry: Entry, levels: range | None = None, examples: Path = EXAMPLES) ->
 
 def markdown(results: list[tuple[Entry, dict[str, float]]]) -> str:
     """The matrix as a Markdown table (minimum over the unknowns, then each unknown)."""
-    head = ("| element | d | configuration | levels | expected ≥ | min | v | p | σ |\n"
-            "|---|---|---|---|---|---|---|---|---|")
     rows = []
     for entry, rates in results:
-        velocity = min(v for k, v in rates.items() if k.startswith("v"))
-        measured = [velocity, rates["p"], rates["sigma"]]
+        measured = _unknowns(rates)
         element = ("MINI" if entry.family == "mini" else f"Taylor–Hood k={entry.order}") + (", curved" if entry.curved else "")
-        levels = f"{entry.levels.start}–{entry.levels.stop - 1}"
-        rows.append(f"| {element} | {entry.dim} | {entry.configuration} | {levels} | {entry.expected:.2f} | "
-                    f"{min(measured):.2f} | " + " | ".join(f"{r:.2f}" for r in measured) + " |")
-    return "\n".join([head] + rows)
+        rows.append([element, entry.dim, entry.configuration, f"{entry.levels.start}–{entry.levels.stop - 1}",
+                     f"{entry.expected:.2f}", f"{min(measured):.2f}"] + [f"{r:.2f}" for r in measured])
+    return _table(["element", "d", "configuration", "levels", "expected ≥", "min", "v", "p", "σ"], rows)
 
 
 def worst(rates: dict[str, float]) -> float:
