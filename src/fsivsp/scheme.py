@@ -148,7 +148,7 @@ class Scheme:
         self._boundary = self.state.vec.CreateVector()
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
-        self._lag_work = (self.state.vec.CreateVector(), ngs.GridFunction(X))
+        self._lag_work = None                   # `march`'s second thread's vectors, made on first use
         self.initialise()
 
     # -- precomputation -------------------------------------------------------------
@@ -339,6 +339,8 @@ class Scheme:
         solutions = (self._rhs.CreateVector(), self._rhs.CreateVector())
         rhs = (self._rhs.CreateVector(), self._rhs)
         boundaries = (self._boundary.CreateVector(), self._boundary)
+        if self._lag_work is None:
+            self._lag_work = (self.state.vec.CreateVector(), ngs.GridFunction(self.spaces.mixed))
         first, scheme, lagged = self.n, self.time_scheme, self._lagged
         newest = scheme.velocity(self.dt)[1]   # the coefficient of vⁿ in aⁿ⁺¹
         self._right_hand_side(scheme, first + 1, rhs[1], boundaries[1])
@@ -492,7 +494,7 @@ class Scheme:
         BDF2's G-norm ½(E(Uⁿ) + E(2Uⁿ − Uⁿ⁻¹)), U = (v, σ)."""
         if self.previous is None or self.n == 0:
             return self._energy(self.state.vec, self.carried.vec)
-        x, u = self._lag_work[0].CreateVector(), self._lag_work[0].CreateVector()
+        x, u = self.state.vec.CreateVector(), self.state.vec.CreateVector()
         x.data = 2 * self.state.vec - self.previous[0]
         u.data = 2 * self.carried.vec - self.previous[1]
         return 0.5 * (self._energy(self.state.vec, self.carried.vec) + self._energy(x, u))
