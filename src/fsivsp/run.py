@@ -265,6 +265,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
         summary = {
             "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
             "inputs": {"geometry": case.geometry, "materials": case.materials.as_dict(), "T": case.T, "dt": case.dt,
+                       "scheme": case.time_scheme.name, "theta": case.time_scheme.theta,
                        "family": case.discretisation.family, "order": case.discretisation.order},
             "mesh": {"vertices": case.mesh.nv, "cells": case.mesh.ne},
             "dofs": {"free": scheme.spaces.free_dofs(), "velocity": scheme.spaces.velocity.ndof,
