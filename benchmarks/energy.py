@@ -15,7 +15,6 @@ Each step records `Scheme.energy()`:
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import platform
 import time
 

@@ -131,15 +131,21 @@ def measure(info: dict, build, steps: int, march_blocks: int, march_block: int) 
         if hasattr(scheme.solver, "iterations"):    # the iterative solver: MinRes iterations of the first step
             record["schemes"][name]["first_step_minres_iterations"] = sum(scheme.solver.iterations[before:])
     per_step = {name: [] for name in SCHEMES}
+    cpu_step = {name: [] for name in SCHEMES}       # process CPU time (all threads): robust to other jobs' load
     per_solve = {name: [] for name in SCHEMES}
     for _ in range(steps):                                 # interleaved: one step of each in turn
         for name, (scheme, counter) in schemes.items():
+            cpu = time.process_time()
             per_step[name].append(timed(scheme.step))
+            cpu_step[name].append(time.process_time() - cpu)
             per_solve[name].append(counter.reset()[1])
     marched = {name: [] for name in SCHEMES}
+    cpu_marched = {name: [] for name in SCHEMES}
     for _ in range(march_blocks):                          # march, interleaved in blocks
         for name, (scheme, counter) in schemes.items():
+            cpu = time.process_time()
             marched[name].append(timed(lambda: scheme.march(march_block)) / march_block)
+            cpu_marched[name].append((time.process_time() - cpu) / march_block)
             counter.reset()
     be = per_step["backward_euler"]
     for name, (scheme, _) in schemes.items():
@@ -153,6 +159,11 @@ def measure(info: dict, build, steps: int, march_blocks: int, march_block: int) 
                  march_step=statistics.median(marched[name]) if marched[name] else None)
         r["step_ratio"] = r["step"] / record["schemes"]["backward_euler"]["step"]
         r["step_ratio_paired"] = statistics.median(a / b for a, b in zip(per_step[name], be))
+        r["cpu_step"] = statistics.median(cpu_step[name])
+        r["cpu_step_ratio"] = r["cpu_step"] / statistics.median(cpu_step["backward_euler"])
+        r["cpu_march_step"] = statistics.median(cpu_marched[name]) if cpu_marched[name] else None
+        r["cpu_march_ratio"] = (r["cpu_march_step"] / statistics.median(cpu_marched["backward_euler"])
+                                if cpu_marched[name] else None)
         r["march_ratio"] = (r["march_step"] / statistics.median(marched["backward_euler"])
                             if marched[name] else None)
         r["first_over_step"] = r["first_step"] / r["step"]
@@ -170,7 +181,7 @@ def combine(repeats: list[dict]) -> dict:
             values = [r["schemes"][name][key] for r in repeats]
             merged[key] = (statistics.median(values) if isinstance(value, (int, float)) and not isinstance(value, bool)
                            and all(v is not None for v in values) else value)
-        for key in ("step_ratio", "step_ratio_paired", "march_ratio", "first_step"):
+        for key in ("step_ratio", "step_ratio_paired", "march_ratio", "first_step", "cpu_step_ratio", "cpu_march_ratio"):
             merged[f"{key}_each"] = [r["schemes"][name][key] for r in repeats]
         record["schemes"][name] = merged
     return record
@@ -261,19 +272,21 @@ def main() -> None:
     print(f"medians over {args.repeats} repeats (each: {args.steps} interleaved steps per scheme; 3D {args.steps3d}); "
           "ratio ranges over the repeats in brackets")
     print("| mesh | free dofs | scheme | solver | set-up [s] | first step [s] (solves; their time [s]) | step [ms] | "
-          "solve [ms] | rest [ms] | step / BE (medians) | step / BE (paired) | march [ms/step] | march / BE |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "solve [ms] | rest [ms] | step / BE (medians) | step / BE (paired) | step CPU / BE | march [ms/step] | "
+          "march / BE | march CPU / BE |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in records:
         for name in SCHEMES:
             s = r["schemes"][name]
             span = lambda key: f"[{min(s[key + '_each']):.3f}–{max(s[key + '_each']):.3f}]"
-            march = (f"{1e3 * s['march_step']:.3f} | {s['march_ratio']:.3f} {span('march_ratio')}"
-                     if s["march_step"] else "– | –")
+            march = (f"{1e3 * s['march_step']:.3f} | {s['march_ratio']:.3f} {span('march_ratio')} | "
+                     f"{s['cpu_march_ratio']:.3f} {span('cpu_march_ratio')}" if s["march_step"] else "– | – | –")
             solver = s["solver"] + (f" ({s['minres_iterations_median']:g} its/step, first step "
                                     f"{s['first_step_minres_iterations']})" if "minres_iterations_median" in s else "")
             print(f"| {r['mesh']} | {r['dofs']} | {name} | {solver} | {s['setup']:.2f} | {s['first_step']:.4f} "
                   f"({s['first_step_solves']:g}; {s['first_step_solve_seconds']:.4f}) | {1e3 * s['step']:.3f} | {1e3 * s['solve']:.3f} | {1e3 * s['rest']:.3f} | "
                   f"{s['step_ratio']:.3f} {span('step_ratio')} | {s['step_ratio_paired']:.3f} {span('step_ratio_paired')} | "
+                  f"{s['cpu_step_ratio']:.3f} {span('cpu_step_ratio')} | "
                   f"{march} |")
     for r in records:
         if "memory" in r:
