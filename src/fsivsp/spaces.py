@@ -65,7 +65,7 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
              else locked_fluid_cells(mesh, dirichlet))
     space = ngs.VectorH1(mesh, order=base, dirichlet=dirichlet)
     bubble = mesh.dim + 1
-    if base >= bubble or not cells:
+    if base >= bubble or not mesh.comm.Sum(len(cells)):  # on any rank (Update is collective under MPI)
         return space, 0
     for nr in cells:
         space.SetOrder(ngs.NodeId(ngs.CELL, nr), bubble)
