@@ -8,7 +8,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import __version__
+from . import __version__, parallel
 from .case import CaseError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
@@ -229,7 +229,7 @@ def study_command(args) -> int:
 def run_command(args) -> int:
     from .run import SolveDiverged, load_run_case, run_case
 
-    case = load_run_case(args.case)
+    case = parallel.shared_case(load_run_case, args.case)
     out = args.out or Path(args.case.stem)
     try:
         summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
@@ -285,6 +285,7 @@ def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    parallel.start()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -298,6 +299,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Exception as error:  # under mpirun possibly on some ranks only: end them all
+        if parallel.distributed():
+            parallel.abort(error)
+        raise
 
 
 if __name__ == "__main__":

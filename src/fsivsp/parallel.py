@@ -117,18 +117,6 @@ def shared_case(load: Callable, path, **options):
 
 
 def gather(value: T) -> list[T]:
-    """``value`` of every rank, in rank order (on every rank). Serial: ``[value]``."""
+    """``value`` of every rank, in rank order, on every rank. Serial: ``[value]``."""
     comm = world()
     return [value] if comm is None else comm.allgather(value)
-
-
-def global_count(vector, mask) -> int:
-    """How many of the dofs in ``mask`` (a BitArray of this rank's dofs) the distributed space has, each
-    dof counted once however many ranks share it; ``vector`` is any vector of the space (a work copy is
-    made). Serial: the number of set bits."""
-    import ngsolve as ngs
-    ones = vector.CreateVector()
-    ones.FV().NumPy()[:] = list(mask)
-    if distributed():
-        ones.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
-    return round(ngs.InnerProduct(ones, ones))
