@@ -285,7 +285,12 @@ def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run a command; its exit code (under mpirun the same on every rank, which leave together)."""
     parallel.start()
+    return parallel.settle(_main(argv))
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

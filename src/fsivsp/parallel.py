@@ -70,6 +70,13 @@ def abort(error: BaseException, code: int = 1) -> None:
     world().Abort(code)
 
 
+def settle(code: int) -> int:
+    """The exit code every rank takes: the largest of the ranks' codes (they wait for each other here, so that
+    none exits while another still works). Serial: ``code``."""
+    comm = world()
+    return code if comm is None else max(comm.allgather(code))
+
+
 def shared(build: Callable[..., T], *args) -> T:
     """``build(*args)`` on rank 0 only, its result on every rank; an exception it raises is raised on
     every rank (so that every rank takes the same exit). Serial: ``build(*args)``."""
