@@ -154,6 +154,18 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
     return record
 
 
+def distributed_check(command: str, solver: str | None, initial_velocity: str, serial_only: str | None = None) -> None:
+    """Under mpirun: refuse (UsageError) options a distributed run does not take (docs/mpi.md)."""
+    from .solvers import unsupported
+
+    if not parallel.distributed():
+        return
+    if serial_only:
+        raise UsageError(f"fsivsp {command}: {serial_only} does not run under mpirun (docs/mpi.md); run without mpirun")
+    if reason := unsupported(solver, initial_velocity):
+        raise UsageError(f"fsivsp {command}: {reason}")
+
+
 def paper_command(args) -> int:
     from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
     from .report import convergence_plot, error_table, rate_table, write_atomic, write_json
@@ -162,6 +174,7 @@ def paper_command(args) -> int:
 
     if args.solver not in solver_names():
         raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(solver_names())}, got {args.solver!r}")
+    distributed_check("paper", args.solver, args.initial_velocity, "--all" if args.all else None)
     options = paper_options(args)
     if not args.all:
         case = paper_case(args.dt, **options)
@@ -216,6 +229,7 @@ def study_command(args) -> int:
     from .study import study
 
     case = to_study(load_study_case(args.case))
+    distributed_check("study", case.solver, case.initial_velocity)
     records = study(case, args.levels, quiet=args.quiet)
     label = f"{case.name}: {case.family}{'' if case.family == 'mini' else case.order}, dt = {case.dt:g}, T = {case.T:g}"
     print(f"{label}\n{error_table(records)}")

@@ -77,6 +77,16 @@ def settle(code: int) -> int:
     return code if comm is None else max(comm.allgather(code))
 
 
+def on_root(build: Callable[..., T], *args) -> T | None:
+    """``build(*args)`` on rank 0 only (a mesh to `distribute`), None on the other ranks; an exception it raises is
+    raised on every rank. Serial: ``build(*args)``."""
+    if world() is None:
+        return build(*args)
+    kept = []
+    shared(lambda: kept.append(build(*args)))  # broadcasts None, or the error
+    return kept[0] if kept else None
+
+
 def shared(build: Callable[..., T], *args) -> T:
     """``build(*args)`` on rank 0 only, its result on every rank; an exception it raises is raised on
     every rank (so that every rank takes the same exit). Serial: ``build(*args)``."""

@@ -219,19 +219,15 @@ def l2_norms(scheme) -> dict[str, float]:
 
 def check_distributed(case: RunCase, resume: bool) -> None:
     """Under mpirun: what a distributed run does not do yet (docs/mpi.md) raises a one-line CaseError."""
-    from .solvers import DISTRIBUTED_SOLVERS
+    from .solvers import unsupported
 
     if resume:
         raise CaseError("--resume: no checkpoints are written under mpirun yet (docs/mpi.md); run without mpirun")
     if case.output["probes"] or case.output["lines"]:
         raise CaseError("output.probes, output.lines: not measured under mpirun yet (docs/mpi.md); "
                         "remove them or run without mpirun")
-    if case.discretisation.solver not in DISTRIBUTED_SOLVERS:
-        raise CaseError(f"discretisation.solver: {case.discretisation.solver!r} does not run under mpirun; "
-                        f"expected one of {', '.join(DISTRIBUTED_SOLVERS)}")
-    if case.discretisation.initial_velocity == "projection":
-        raise CaseError("discretisation.initial_velocity: the projection needs a direct solver, not available "
-                        "under mpirun yet; use interpolation")
+    if reason := unsupported(case.discretisation.solver, case.discretisation.initial_velocity):
+        raise CaseError(f"discretisation.{reason}")
 
 
 def peak_memory() -> int:

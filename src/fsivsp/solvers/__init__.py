@@ -19,7 +19,7 @@ import ngsolve as ngs
 
 from .direct import (METHODS, DirectSolver, SolverError, available_methods, compact,
                      default_method, factorise, free_mask, is_symmetric, to_ngsolve, to_scipy_csr)
-from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_solver
+from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_solver, unsupported
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "DistributedSolver", "IterativeSolver",
     "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
     "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
+    "unsupported",
 ]
 
 #: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension). Memory decides, not

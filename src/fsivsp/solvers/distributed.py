@@ -63,6 +63,15 @@ class DistributedSolver(IterativeSolver):
     preconditioner_type = DistributedPreconditioner
 
 
+def unsupported(solver: str | None, initial_velocity: str) -> str | None:
+    """Why a distributed run cannot take these options (one line naming the option), or None."""
+    if solver not in (None, *DISTRIBUTED_SOLVERS):
+        return f"solver: {solver!r} does not run under mpirun; expected one of {', '.join(DISTRIBUTED_SOLVERS)}"
+    if initial_velocity == "projection":
+        return "initial_velocity: the projection needs a direct solver, which does not run under mpirun; use interpolation"
+    return None
+
+
 def distributed_solver(matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, name: str,
                        tol: float = TOLERANCE, maxiter: int = MAX_ITERATIONS) -> DistributedSolver:
     """The solver of a distributed step matrix; ``name`` must be one of `DISTRIBUTED_SOLVERS`."""
