@@ -251,7 +251,10 @@ def run_command(args) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
+        if parallel.distributed():
+            print(f"interrupted: summary written in {out} (no checkpoints under mpirun)", file=sys.stderr)
+        else:
+            print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
         return 130
     if not args.quiet:
         print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g}; results in {out}")
@@ -264,6 +267,7 @@ def matrix_command(args) -> int:
     from .report import write_atomic, write_json
     from .verification import TABLE, markdown, run, worst
 
+    distributed_check("matrix", None, "interpolation", "the verification matrix")
     entries = [e for e in TABLE if args.slow or not e.slow]
     results, records = [], []
     for entry in tqdm(entries, disable=args.quiet, unit="entry"):
