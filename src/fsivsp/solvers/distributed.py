@@ -7,8 +7,8 @@ Cahouet–Chabard's S⁻¹ ≈ ρ_F/Δt² L_p⁻¹ + 2ν/Δt M_p⁻¹, but its p
 - A⁻¹ and ρ_F/Δt² L_p⁻¹ together: NGSolve's BDDC of the block-diagonal form A ⊕ Δt²/ρ_F L_p on V_h × Q_h
   (one form, so one preconditioner; the pressure there vanishes on the fluid's boundaries where the velocity is
   free, as in `iterative`);
-- 2ν/Δt M_p⁻¹: the inverse diagonal of the pressure mass (NGSolve's "local" preconditioner, Jacobi) on every
-  free pressure dof.
+- 2ν/Δt M_p⁻¹: BDDC of the pressure mass on every free pressure dof (of M_v ⊕ M_p, restricted to the pressure:
+  NGSolve's Jacobi, the "local" preconditioner, failed to assemble on 3 ranks, "sparse matrix row full").
 
 BDDC treats all of the velocity's dofs (MINI's bubbles, Taylor–Hood's higher orders) and needs no refinement
 hierarchy. Everything is built once per run; a step costs matrix-vector products and their communication.
@@ -47,12 +47,13 @@ class DistributedPreconditioner:
         (v, p), (w, q) = X.TnT()
         mass = ngs.BilinearForm(X)
         mass += forms.pressure_mass(p, q) + v * w * ngs.dx  # the velocity's part is projected away below
-        jacobi = ngs.Preconditioner(mass, "local")
+        mass_inverse = ngs.Preconditioner(mass, "bddc")
         mass.Assemble()
         pressure_dofs = ngs.BitArray(X.FreeDofs())
         pressure_dofs[:spaces.velocity.ndof] = False
-        self._keep = (product, blocks, bddc, mass, jacobi)
-        self.mat = bddc.mat + 2 * mat.nu / dt * ngs.Projector(pressure_dofs, True) @ jacobi.mat
+        pressure = ngs.Projector(pressure_dofs, True)
+        self._keep = (product, blocks, bddc, mass, mass_inverse)
+        self.mat = bddc.mat + 2 * mat.nu / dt * pressure @ mass_inverse.mat @ pressure
 
 
 class DistributedSolver(IterativeSolver):
