@@ -7,14 +7,16 @@ Cahouet–Chabard's S⁻¹ ≈ ρ_F/Δt² L_p⁻¹ + 2ν/Δt M_p⁻¹, but its p
 - A⁻¹ and ρ_F/Δt² L_p⁻¹ together: NGSolve's BDDC of the block-diagonal form A ⊕ Δt²/ρ_F L_p on V_h × Q_h
   (one form, so one preconditioner; the pressure there vanishes on the fluid's boundaries where the velocity is
   free, as in `iterative`);
-- 2ν/Δt M_p⁻¹: BDDC of the pressure mass on every free pressure dof (of M_v ⊕ M_p, restricted to the pressure:
-  NGSolve's Jacobi, the "local" preconditioner, failed to assemble on 3 ranks, "sparse matrix row full").
+- 2ν/Δt M_p⁻¹: the inverse diagonal of the pressure mass on every free pressure dof (Jacobi, `jacobi`; NGSolve's
+  own, the "local" preconditioner, failed to assemble on 3 ranks, "sparse matrix row full", and its
+  ``DiagonalMatrix`` crashed on a distributed vector).
 
 BDDC treats all of the velocity's dofs (MINI's bubbles, Taylor–Hood's higher orders) and needs no refinement
 hierarchy. Everything is built once per run; a step costs matrix-vector products and their communication.
 """
 from __future__ import annotations
 
+import numpy as np
 import ngsolve as ngs
 
 from .. import forms
@@ -44,16 +46,59 @@ class DistributedPreconditioner:
         bddc = ngs.Preconditioner(blocks, "bddc")
         blocks.Assemble()
 
-        (v, p), (w, q) = X.TnT()
+        (_, p), (_, q) = X.TnT()
         mass = ngs.BilinearForm(X)
-        mass += forms.pressure_mass(p, q) + v * w * ngs.dx  # the velocity's part is projected away below
-        mass_inverse = ngs.Preconditioner(mass, "bddc")
+        mass += forms.pressure_mass(p, q)
         mass.Assemble()
-        pressure_dofs = ngs.BitArray(X.FreeDofs())
-        pressure_dofs[:spaces.velocity.ndof] = False
-        pressure = ngs.Projector(pressure_dofs, True)
-        self._keep = (product, blocks, bddc, mass, mass_inverse)
-        self.mat = bddc.mat + 2 * mat.nu / dt * pressure @ mass_inverse.mat @ pressure
+        self._keep = (product, blocks, bddc, mass)
+        self.mat = bddc.mat + 2 * mat.nu / dt * jacobi(mass.mat, spaces)
+
+
+
+
+def jacobi(matrix: ngs.BaseMatrix, spaces: Spaces) -> ngs.BaseMatrix:
+    """The inverse diagonal of a distributed matrix on X_h's free pressure dofs (zero elsewhere): the local
+    diagonals summed over the ranks that share a dof."""
+    diagonal = matrix.CreateColVector()
+    values = diagonal.FV().NumPy()
+    values[:] = 0.0
+    rows, cols, entries = (np.asarray(a) for a in matrix.local_mat.COO())
+    on = rows == cols
+    np.add.at(values, rows[on], entries[on])
+    diagonal.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+    diagonal.Cumulate()
+    free = np.fromiter(spaces.mixed.FreeDofs(), dtype=bool, count=spaces.mixed.ndof)
+    free[:spaces.velocity.ndof] = False
+    values[:] = np.where(free & (values > 0), 1.0 / np.where(values > 0, values, 1.0), 0.0)
+    return Diagonal(diagonal)
+
+
+class Diagonal(ngs.BaseMatrix):
+    """x ↦ d ⊙ x for a cumulated vector d, entry by entry on each rank (x's parallel status is kept)."""
+
+    def __init__(self, diagonal: ngs.BaseVector):
+        super().__init__()
+        self.diagonal, self._values = diagonal, diagonal.FV().NumPy()
+
+    def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
+        y.FV().NumPy()[:] = self._values * x.FV().NumPy()
+        if hasattr(x, "GetParallelStatus"):
+            y.SetParallelStatus(x.GetParallelStatus())
+
+    def MultTrans(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
+        self.Mult(x, y)
+
+    def Height(self) -> int:
+        return len(self._values)
+
+    def Width(self) -> int:
+        return len(self._values)
+
+    def CreateColVector(self) -> ngs.BaseVector:
+        return self.diagonal.CreateVector()
+
+    def CreateRowVector(self) -> ngs.BaseVector:
+        return self.diagonal.CreateVector()
 
 
 class DistributedSolver(IterativeSolver):
