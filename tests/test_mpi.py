@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from fsivsp import parallel
@@ -25,7 +26,7 @@ except ImportError:
 
 needs_mpi = pytest.mark.skipif(MISSING is not None, reason=f"MPI not installed: {MISSING}")
 
-#: A 2D tube with a traction pulse (as in test_run), five steps, no files per step.
+#: A 2D tube with a traction pulse (as in test_run), five steps, probes in the fluid and the solid and a line.
 TUBE = """
 [geometry]
 kind = "elastic_tube"
@@ -58,6 +59,8 @@ velocity = ["0", "0"]
 
 [output]
 vtk = false
+probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]
+lines = [{{ start = [0.0, 0.0], end = [2.0, 0.0], n = 11 }}]
 """
 
 #: The 3D solid ball in a fluid box of examples/solid_in_fluid_3d.toml (curved), loaded in both media.
@@ -124,6 +127,11 @@ def test_run_equals_serial(tmp_path, text, family):
     assert_close(serial["l2_norms"], distributed["l2_norms"], "L² norm")
     assert_close(dict(enumerate(serial["energy"]["energy"])), dict(enumerate(distributed["energy"]["energy"])),
                  "energy at step")
+    for table in ("probes.csv", "lines.csv") if "probes" in text else ():  # each point evaluated on one rank
+        expected, got = (np.genfromtxt(tmp_path / name / table, delimiter=",", skip_header=1, ndmin=2)
+                         for name in ("serial", "mpi"))
+        scale = np.nanmax(np.abs(expected), axis=0)  # per column (NaN: the pressure at a point in the solid)
+        np.testing.assert_allclose(got, expected, rtol=RELATIVE, atol=RELATIVE * scale, equal_nan=True)
 
 
 @needs_mpi

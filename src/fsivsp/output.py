@@ -25,6 +25,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import ngsolve as ngs
 
+from . import parallel
 from .geometry import FLUID
 from .report import write_atomic, write_json
 
@@ -204,21 +205,30 @@ class Probes:
 
     @staticmethod
     def _locate(mesh: ngs.Mesh, coords: np.ndarray, label: str):
+        """The points this process evaluates (on a distributed mesh, MPI: those of its part that no lower rank
+        has) with their mask among all points, and whether each is in a fluid cell."""
         if not len(coords):
-            return None, np.zeros(0, dtype=bool)
+            return (None, np.zeros(0, dtype=bool)), np.zeros(0, dtype=bool)
         located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
-        outside = np.flatnonzero(located["nr"] < 0)
+        owner = parallel.owners(located["nr"] >= 0)
+        outside = np.flatnonzero(owner < 0)
         if len(outside):
             i = int(outside[0])
             where = ", ".join(f"{c:g}" for c in coords[i])
             raise ValueError(f"{label.format(i)} at ({where}) is outside the mesh")
-        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"]])
-        return located, fluid
+        mine = owner == parallel.rank()
+        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"][mine]])
+        return (located[mine], mine), fluid
 
     def _evaluate(self, scheme, located, fluid) -> tuple[np.ndarray, np.ndarray]:
-        velocity = np.asarray(scheme.velocity(located)).reshape(len(fluid), self.dim)
-        pressure = np.asarray(scheme.pressure(located), dtype=float).reshape(len(fluid))
-        return velocity, np.where(fluid, pressure, np.nan)
+        (points, mine), n = located, len(located[1])
+        values = np.zeros((n, self.dim + 1))
+        if mine.any():
+            values[mine, :self.dim] = np.asarray(scheme.velocity(points)).reshape(-1, self.dim)
+            pressure = np.asarray(scheme.pressure(points), dtype=float).reshape(-1)
+            values[mine, self.dim] = np.where(fluid, pressure, np.nan)
+        values = parallel.total(values)  # each point's values come from one rank
+        return values[:, :self.dim], values[:, self.dim]
 
     def record(self, scheme) -> None:
         """Append the values of the scheme's current state (step ``scheme.n``)."""

@@ -141,6 +141,22 @@ def shared_case(load: Callable, path, **options):
     return dataclasses.replace(case, mesh=distribute(meshes[0] if meshes else None))
 
 
+def owners(found):
+    """For a boolean array (the same length on every rank): the lowest rank where each entry is True, −1 where
+    none is. Serial: 0 where True."""
+    import numpy as np
+    found = np.asarray(found, dtype=bool)
+    ranks = np.array(gather(np.where(found, rank(), size())))
+    lowest = ranks.min(axis=0)
+    return np.where(lowest < size(), lowest, -1)
+
+
+def total(values):
+    """The sum over the ranks of a numpy array (the same shape on every rank). Serial: the array."""
+    comm = world()
+    return values if comm is None else comm.allreduce(values)
+
+
 def gather(value: T) -> list[T]:
     """``value`` of every rank, in rank order, on every rank. Serial: ``[value]``."""
     comm = world()

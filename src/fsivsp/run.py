@@ -223,9 +223,6 @@ def check_distributed(case: RunCase, resume: bool) -> None:
 
     if resume:
         raise CaseError("--resume: no checkpoints are written under mpirun yet (docs/mpi.md); run without mpirun")
-    if case.output["probes"] or case.output["lines"]:
-        raise CaseError("output.probes, output.lines: not measured under mpirun yet (docs/mpi.md); "
-                        "remove them or run without mpirun")
     if reason := unsupported(case.discretisation.solver, case.discretisation.initial_velocity):
         raise CaseError(f"discretisation.{reason}")
 
