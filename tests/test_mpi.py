@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import meshio
 import numpy as np
 import pytest
 
@@ -26,7 +27,8 @@ except ImportError:
 
 needs_mpi = pytest.mark.skipif(MISSING is not None, reason=f"MPI not installed: {MISSING}")
 
-#: A 2D tube with a traction pulse (as in test_run), five steps, probes in the fluid and the solid and a line.
+#: A 2D tube with a traction pulse (as in test_run), five steps, probes in the fluid and the solid, a line and
+#: VTK files of steps 0 and 5.
 TUBE = """
 [geometry]
 kind = "elastic_tube"
@@ -58,7 +60,7 @@ traction = ["0", "0"]
 velocity = ["0", "0"]
 
 [output]
-vtk = false
+every = 5
 probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]
 lines = [{{ start = [0.0, 0.0], end = [2.0, 0.0], n = 11 }}]
 """
@@ -132,6 +134,13 @@ def test_run_equals_serial(tmp_path, text, family):
                          for name in ("serial", "mpi"))
         scale = np.nanmax(np.abs(expected), axis=0)  # per column (NaN: the pressure at a point in the solid)
         np.testing.assert_allclose(got, expected, rtol=RELATIVE, atol=RELATIVE * scale, equal_nan=True)
+    if "every = 5" in text:  # one piece per rank with cells (rank 0 has none), all cells, the same largest values
+        whole = meshio.read(tmp_path / "serial" / "vtk" / "fields_000005.vtu")
+        pieces = [meshio.read(tmp_path / "mpi" / "vtk" / "fields_000005_proc1.vtu")]
+        assert "fields_000005_proc1.vtu" in (tmp_path / "mpi" / "vtk" / "fields.pvd").read_text()
+        assert sum(len(c.data) for p in pieces for c in p.cells) == sum(len(c.data) for c in whole.cells)
+        for name, values in whole.point_data.items():
+            assert max(abs(p.point_data[name]).max() for p in pieces) == pytest.approx(abs(values).max(), rel=RELATIVE)
 
 
 @needs_mpi

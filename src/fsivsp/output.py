@@ -88,11 +88,14 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
 
 
 def _pvd(entries: list[tuple[float, str]]) -> str:
+    """The collection; files of the same time are its parts 0, 1, … (the pieces of a distributed run)."""
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
              "  <Collection>"]
-    lines += [f'    <DataSet timestep="{time!r}" group="" part="0" file={quoteattr(name)}/>'
-              for time, name in entries]
+    parts: dict[float, int] = {}
+    for time, name in entries:
+        parts[time] = parts.get(time, -1) + 1
+        lines.append(f'    <DataSet timestep="{time!r}" group="" part="{parts[time]}" file={quoteattr(name)}/>')
     lines += ["  </Collection>", "</VTKFile>", ""]
     return "\n".join(lines)
 
@@ -137,6 +140,8 @@ class VTKSeries:
         if self.refresh is not None:
             self.refresh()
         self.directory.mkdir(parents=True, exist_ok=True)
+        if parallel.distributed():
+            return self._write_pieces(time, step)
         final = self.directory / self.filename(step)
         fd, reserved = tempfile.mkstemp(dir=self.directory, prefix=f".{final.stem}.", suffix=".tmp")
         os.close(fd)
@@ -152,10 +157,27 @@ class VTKSeries:
         finally:
             written.unlink(missing_ok=True)
             base.unlink(missing_ok=True)
-        entries = [(t, n) for t, n in self._entries if n != final.name and t < time] + [(float(time), final.name)]
-        write_atomic(self.pvd, _pvd(entries))
-        self._entries = entries
+        self._add(time, [final.name])
         return final
+
+    def _add(self, time: float, names: list[str]) -> None:
+        """Enter the files of ``time`` into the collection (rank 0 writes it)."""
+        entries = [(t, n) for t, n in self._entries if n not in names and t < time] + [(float(time), n) for n in names]
+        if parallel.is_root():
+            write_atomic(self.pvd, _pvd(entries))
+        self._entries = entries
+
+    def _write_pieces(self, time: float, step: int) -> Path:
+        """Under MPI: NGSolve writes ``{name}_{step:06d}_proc{r}.vtu``, rank r's part of the mesh (rank 0 has
+        none), and the ``.pvd`` of that step, which the collection replaces (not atomic, unlike the serial files)."""
+        base = self.directory / self.filename(step).removesuffix(".vtu")
+        ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields), filename=str(base),
+                      subdivision=self.subdivision).Do()
+        if parallel.is_root():
+            base.with_suffix(".pvd").unlink(missing_ok=True)
+        names = [f"{base.name}_proc{r}.vtu" for r in range(1, parallel.size())]
+        self._add(time, names)
+        return self.directory / names[0]
 
 
 # -- probes ---------------------------------------------------------------------------

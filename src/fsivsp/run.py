@@ -253,9 +253,9 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     setup = clock.perf_counter() - started
     fields, stress = scheme_fields(scheme)
     if distributed and not quiet:
-        print("note: under mpirun no VTK series and no checkpoints are written yet (docs/mpi.md)", file=sys.stderr)
+        print("note: under mpirun no checkpoints are written yet (docs/mpi.md)", file=sys.stderr)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
-                       refresh=stress) if case.output["vtk"] and not distributed else None
+                       refresh=stress) if case.output["vtk"] else None
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
     history = {"time": [], "energy": []}
     resumed_from = None
