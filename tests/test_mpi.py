@@ -5,6 +5,7 @@ import os
 import shutil
 import subprocess
 import sys
+from importlib.util import find_spec
 from pathlib import Path
 
 import meshio
@@ -19,11 +20,8 @@ MPIRUN = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or shutil
 TIMEOUT = 120
 RELATIVE = 1e-6
 
-try:
-    import mpi4py  # noqa: F401
-    MISSING = None if MPIRUN else "no mpirun next to the Python executable or on PATH"
-except ImportError:
-    MISSING = "mpi4py is not installed"
+MISSING = ("mpi4py is not installed" if find_spec("mpi4py") is None
+           else None if MPIRUN else "no mpirun next to the Python executable or on PATH")
 
 needs_mpi = pytest.mark.skipif(MISSING is not None, reason=f"MPI not installed: {MISSING}")
 

@@ -54,8 +54,6 @@ class DistributedPreconditioner:
         self.mat = bddc.mat + 2 * mat.nu / dt * jacobi(mass.mat, spaces)
 
 
-
-
 def jacobi(matrix: ngs.BaseMatrix, spaces: Spaces) -> ngs.BaseMatrix:
     """The inverse diagonal of a distributed matrix on X_h's free pressure dofs (zero elsewhere): the local
     diagonals summed over the ranks that share a dof."""
