@@ -24,11 +24,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def case_text(path: Path, refine: int | None, steps: int) -> str:
-    """The case file with the overrides of the module's docstring, as TOML text."""
+def case_text(path: Path, refine: int | None, steps: int, maxh: float | None = None) -> str:
+    """The case file with the overrides of the module's docstring (and ``maxh`` if given), as TOML text."""
     doc = tomllib.loads(path.read_text())
     if refine is not None:
         doc["geometry"]["refine"] = refine
+    if maxh is not None:
+        doc["geometry"]["maxh"] = maxh
     doc["time"]["T"] = steps * doc["time"]["dt"]
     doc.setdefault("output", {}).update(vtk=False)
     for key in ("probes", "lines"):
@@ -71,6 +73,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--case", type=Path, default=ROOT / "examples" / "large_ball_3d.toml")
     parser.add_argument("--refine", type=int, default=2)
+    parser.add_argument("--maxh", type=float, default=None, help="the coarse mesh size (default: the case's)")
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--ranks", default="2,3", help="comma-separated rank counts besides the serial run")
     parser.add_argument("--json", type=Path, default=None)
@@ -78,21 +81,22 @@ def main() -> None:
     ranks = [1, *(int(r) for r in re.split(r"[, ]+", args.ranks) if r)]
     with tempfile.TemporaryDirectory() as tmp:
         case = Path(tmp) / f"{args.case.stem}.toml"
-        case.write_text(case_text(args.case, args.refine, args.steps))
+        case.write_text(case_text(args.case, args.refine, args.steps, args.maxh))
         records = [run(case, Path(tmp) / f"np{n}", n) for n in ranks]
     serial = records[0]["l2_norms"]
-    print(f"{args.case.name}, refine {args.refine}, {args.steps} steps, {records[0]['free_dofs']} free unknowns, "
-          f"{os.cpu_count()} cores")
+    print(f"{args.case.name}, maxh {args.maxh or 'default'}, refine {args.refine}, {args.steps} steps, "
+          f"{records[0]['free_dofs']} free unknowns, {os.cpu_count()} cores")
     print("ranks  solver       its   setup s  solver setup s  s/step  peak GiB per rank  max rel. diff of L² norms")
     for r in records:
         diff = max(abs(r["l2_norms"][k] - v) / abs(v) for k, v in serial.items() if v)
         memory = ", ".join(f"{m:.2f}" for m in r["peak_memory_gib"])
         its = f"{r['iterations_mean']:.0f}" if r["iterations_mean"] is not None else "-"
-        print(f"{r['ranks']:5d}  {r['solver']:11s} {its:>4s}  {r['setup_seconds']:8.1f}  {r['solver_setup_seconds']:14.1f}"
-              f"  {r['seconds_per_step']:6.2f}  {memory:17s}  {diff:.1e}")
+        print(f"{r['ranks']:5d}  {r['solver']:11s} {its:>4s}  {r['setup_seconds']:8.1f}"
+              f"  {r['solver_setup_seconds']:14.1f}  {r['seconds_per_step']:6.2f}  {memory:17s}  {diff:.1e}")
     if args.json:
-        args.json.write_text(json.dumps({"case": args.case.name, "refine": args.refine, "steps": args.steps,
-                                         "cores": os.cpu_count(), "records": records}, indent=1) + "\n")
+        args.json.write_text(json.dumps({"case": args.case.name, "maxh": args.maxh, "refine": args.refine,
+                                         "steps": args.steps, "cores": os.cpu_count(), "records": records},
+                                        indent=1) + "\n")
 
 
 if __name__ == "__main__":
