@@ -10,7 +10,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from . import __version__
+from . import __version__, parallel
 from .case import CaseError
 from .checkpoint import CheckpointError
 from .geometry import GeometryError
@@ -201,6 +201,18 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
     return record
 
 
+def distributed_check(command: str, solver: str | None, initial_velocity: str, serial_only: str | None = None) -> None:
+    """Under mpirun: refuse (UsageError) options a distributed run does not take (docs/mpi.md)."""
+    from .solvers import unsupported
+
+    if not parallel.distributed():
+        return
+    if serial_only:
+        raise UsageError(f"fsivsp {command}: {serial_only} does not run under mpirun (docs/mpi.md); run without mpirun")
+    if reason := unsupported(solver, initial_velocity):
+        raise UsageError(f"fsivsp {command}: {reason}")
+
+
 def paper_command(args) -> int:
     from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
     from .report import convergence_plot, error_table, rate_table, write_atomic, write_json
@@ -209,6 +221,7 @@ def paper_command(args) -> int:
 
     if args.solver not in solver_names():
         raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(solver_names())}, got {args.solver!r}")
+    distributed_check("paper", args.solver, args.initial_velocity, "--all" if args.all else None)
     options = paper_options(args)
     scheme = options["time_scheme"]
     label = {"backward_euler": "backward Euler", "bdf2": "BDF2"}.get(scheme.name, f"the θ-scheme (θ = {scheme.theta:g})")
@@ -267,6 +280,7 @@ def study_command(args) -> int:
     from .study import study, time_study
 
     case = to_study(load_study_case(args.case))
+    distributed_check("study", case.solver, case.initial_velocity)
     case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme))
     element = f"{case.family}{'' if case.family == 'mini' else case.order}"
     if args.dt is not None:
@@ -286,7 +300,7 @@ def study_command(args) -> int:
 def run_command(args) -> int:
     from .run import SolveDiverged, load_run_case, run_case
 
-    case = load_run_case(args.case)
+    case = parallel.shared_case(load_run_case, args.case)
     out = args.out or Path(args.case.stem)
     try:
         summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
@@ -294,7 +308,10 @@ def run_command(args) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 3
     except KeyboardInterrupt:
-        print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
+        if parallel.distributed():
+            print(f"interrupted: summary written in {out} (no checkpoints under mpirun)", file=sys.stderr)
+        else:
+            print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
         return 130
     if not args.quiet:
         print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g}; results in {out}")
@@ -307,6 +324,7 @@ def matrix_command(args) -> int:
     from .report import write_atomic, write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 
+    distributed_check("matrix", None, "interpolation", "the verification matrix")
     entries = [e for e in TABLE if args.slow or not e.slow]
     time_entries = [e for e in TIME_TABLE if args.slow or not e.slow]
     results, time_results, records = [], [], []
@@ -352,6 +370,12 @@ def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run a command; its exit code (under mpirun the same on every rank, which leave together)."""
+    parallel.start()
+    return parallel.settle(_main(argv))
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -365,6 +389,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except Exception as error:  # under mpirun possibly on some ranks only: end them all
+        if parallel.distributed():
+            parallel.abort(error)
+        raise
 
 
 if __name__ == "__main__":

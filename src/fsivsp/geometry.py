@@ -157,26 +157,41 @@ def interface_normal(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
     """The unit normal on Γ pointing from Ω_F into Ω_S (the paper's n).
 
     NGSolve orients boundary normals per boundary element; the sign is fixed here once
-    per mesh from the fluid cell adjacent to each interface facet.
+    per mesh from the fluid cell adjacent to each interface facet. On a distributed mesh (MPI) that cell
+    may live on another rank than the facet's other copy: each rank signs the facets whose fluid cell it
+    has, and the signs are summed over the ranks.
     """
     normal = ngs.specialcf.normal(mesh.dim)
     coords = (ngs.x, ngs.y, ngs.z)[: mesh.dim]
     centre = (0.5,) if mesh.dim == 2 else (1 / 3, 1 / 3)
     signs = ngs.SurfaceL2(mesh, order=0, definedon=mesh.Boundaries(INTERFACE))
     sign = ngs.GridFunction(signs)
+    values, interface, bad = sign.vec.FV().NumPy(), [], None
+    values[:] = 0.0
     for el in mesh.Elements(ngs.BND):
         if el.mat != INTERFACE:
             continue
         facet = el.edges[0] if mesh.dim == 2 else el.faces[0]
         fluid = [c for c in mesh[facet].elements if mesh[c].mat == FLUID]
+        interface.append(signs.GetDofNrs(el)[0])
+        if len(fluid) > 1 or not fluid and mesh.comm.size == 1:
+            bad = facet.nr
         if len(fluid) != 1:
-            raise GeometryError(f"mesh: interface facet {facet.nr} does not border exactly one fluid cell")
+            continue
         trafo = mesh.GetTrafo(ngs.ElementId(el))  # must outlive the mesh point
         point = trafo(*centre)
         cell = [mesh[v].point for v in mesh[fluid[0]].vertices]
         into_solid = sum(n * (c(point) - sum(p[i] for p in cell) / len(cell))
                          for i, (n, c) in enumerate(zip(normal(point), coords)))
-        sign.vec[signs.GetDofNrs(el)[0]] = 1.0 if into_solid > 0 else -1.0
+        values[interface[-1]] = 1.0 if into_solid > 0 else -1.0
+    if mesh.comm.size > 1:
+        sign.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+        sign.vec.Cumulate()
+        if bad is None and np.any(np.abs(values[interface]) != 1.0):
+            bad = -1
+    if mesh.comm.Max(0 if bad is None else 1):  # the same decision on every rank
+        facet = f"facet {bad}" if bad is not None and bad >= 0 else "a facet"
+        raise GeometryError(f"mesh: interface {facet} does not border exactly one fluid cell")
     return sign * normal
 
 

@@ -106,7 +106,7 @@ def rigid_motions(space: ngs.FESpace, select: Callable, region: str) -> list[ngs
     fields = [(1, 0), (0, 1), (-y, x)] if mesh.dim == 2 else \
         [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (-z, 0, x), (0, -z, y)]
     part = connected_parts(mesh, region)
-    parts = part.max() + 1
+    parts = part.max(initial=-1) + 1  # none on a rank without cells of the region (MPI)
     owner = None
     if parts > 1:  # the part of each dof, from the cells of the region
         owner = np.full(space.ndof, -1)
@@ -151,7 +151,7 @@ class ErrorNorm:
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
-        if terms is None:
+        if terms is None or space.ParallelDofs() is not None:  # MPI: quadrature, the projections are serial
             self._time = ngs.Parameter(0.0)
             self._uh = ngs.GridFunction(space)
             self._integrand = self._remainder(self._offset(self._exact_cfs(exact, self._time)), self._uh)

@@ -25,6 +25,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import ngsolve as ngs
 
+from . import parallel
 from .geometry import FLUID
 from .report import write_atomic, write_json
 
@@ -87,11 +88,14 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
 
 
 def _pvd(entries: list[tuple[float, str]]) -> str:
+    """The collection; files of the same time are its parts 0, 1, … (the pieces of a distributed run)."""
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
              "  <Collection>"]
-    lines += [f'    <DataSet timestep="{time!r}" group="" part="0" file={quoteattr(name)}/>'
-              for time, name in entries]
+    parts: dict[float, int] = {}
+    for time, name in entries:
+        parts[time] = parts.get(time, -1) + 1
+        lines.append(f'    <DataSet timestep="{time!r}" group="" part="{parts[time]}" file={quoteattr(name)}/>')
     lines += ["  </Collection>", "</VTKFile>", ""]
     return "\n".join(lines)
 
@@ -136,6 +140,8 @@ class VTKSeries:
         if self.refresh is not None:
             self.refresh()
         self.directory.mkdir(parents=True, exist_ok=True)
+        if parallel.distributed():
+            return self._write_pieces(time, step)
         final = self.directory / self.filename(step)
         fd, reserved = tempfile.mkstemp(dir=self.directory, prefix=f".{final.stem}.", suffix=".tmp")
         os.close(fd)
@@ -151,10 +157,27 @@ class VTKSeries:
         finally:
             written.unlink(missing_ok=True)
             base.unlink(missing_ok=True)
-        entries = [(t, n) for t, n in self._entries if n != final.name and t < time] + [(float(time), final.name)]
-        write_atomic(self.pvd, _pvd(entries))
-        self._entries = entries
+        self._add(time, [final.name])
         return final
+
+    def _add(self, time: float, names: list[str]) -> None:
+        """Enter the files of ``time`` into the collection (rank 0 writes it)."""
+        entries = [(t, n) for t, n in self._entries if n not in names and t < time] + [(float(time), n) for n in names]
+        if parallel.is_root():
+            write_atomic(self.pvd, _pvd(entries))
+        self._entries = entries
+
+    def _write_pieces(self, time: float, step: int) -> Path:
+        """Under MPI: NGSolve writes ``{name}_{step:06d}_proc{r}.vtu``, rank r's part of the mesh (rank 0 has
+        none), and the ``.pvd`` of that step, which the collection replaces (not atomic, unlike the serial files)."""
+        base = self.directory / self.filename(step).removesuffix(".vtu")
+        ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields), filename=str(base),
+                      subdivision=self.subdivision).Do()
+        if parallel.is_root():
+            base.with_suffix(".pvd").unlink(missing_ok=True)
+        names = [f"{base.name}_proc{r}.vtu" for r in range(1, parallel.size())]
+        self._add(time, names)
+        return self.directory / names[0]
 
 
 # -- probes ---------------------------------------------------------------------------
@@ -204,21 +227,30 @@ class Probes:
 
     @staticmethod
     def _locate(mesh: ngs.Mesh, coords: np.ndarray, label: str):
+        """The points this process evaluates (on a distributed mesh, MPI: those of its part that no lower rank
+        has) with their mask among all points, and whether each is in a fluid cell."""
         if not len(coords):
-            return None, np.zeros(0, dtype=bool)
+            return (None, np.zeros(0, dtype=bool)), np.zeros(0, dtype=bool)
         located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
-        outside = np.flatnonzero(located["nr"] < 0)
+        owner = parallel.owners(located["nr"] >= 0)
+        outside = np.flatnonzero(owner < 0)
         if len(outside):
             i = int(outside[0])
             where = ", ".join(f"{c:g}" for c in coords[i])
             raise ValueError(f"{label.format(i)} at ({where}) is outside the mesh")
-        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"]])
-        return located, fluid
+        mine = owner == parallel.rank()
+        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"][mine]])
+        return (located[mine], mine), fluid
 
     def _evaluate(self, scheme, located, fluid) -> tuple[np.ndarray, np.ndarray]:
-        velocity = np.asarray(scheme.velocity(located)).reshape(len(fluid), self.dim)
-        pressure = np.asarray(scheme.pressure(located), dtype=float).reshape(len(fluid))
-        return velocity, np.where(fluid, pressure, np.nan)
+        (points, mine), n = located, len(located[1])
+        values = np.zeros((n, self.dim + 1))
+        if mine.any():
+            values[mine, :self.dim] = np.asarray(scheme.velocity(points)).reshape(-1, self.dim)
+            pressure = np.asarray(scheme.pressure(points), dtype=float).reshape(-1)
+            values[mine, self.dim] = np.where(fluid, pressure, np.nan)
+        values = parallel.total(values)  # each point's values come from one rank
+        return values[:, :self.dim], values[:, self.dim]
 
     def record(self, scheme) -> None:
         """Append the values of the scheme's current state (step ``scheme.n``)."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import signal
+import sys
 import time as clock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from . import parallel
 from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_geometry, read_materials,
                    read_time, read_toml, section)
 from .expressions import ExpressionError, parse_vector
@@ -215,6 +217,16 @@ def l2_norms(scheme) -> dict[str, float]:
             "stress": math.sqrt(max(ngs.Integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)), 0.0))}
 
 
+def check_distributed(case: RunCase, resume: bool) -> None:
+    """Under mpirun: what a distributed run does not do yet (docs/mpi.md) raises a one-line CaseError."""
+    from .solvers import unsupported
+
+    if resume:
+        raise CaseError("--resume: no checkpoints are written under mpirun yet (docs/mpi.md); run without mpirun")
+    if reason := unsupported(case.discretisation.solver, case.discretisation.initial_velocity):
+        raise CaseError(f"discretisation.{reason}")
+
+
 def peak_memory() -> int:
     """The peak resident memory of this process so far, in bytes: Linux's VmHWM (``ru_maxrss`` of a forked
     child starts from its parent's peak: 1 510 MiB reported for a child that used 8.7 MB)."""
@@ -230,18 +242,25 @@ def peak_memory() -> int:
 
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
+    import ngsolve as ngs
     from tqdm.auto import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
     from .solvers import NotConverged
+    from .spaces import global_count
 
+    distributed = parallel.distributed()
+    if distributed:
+        check_distributed(case, resume)
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     checkpoints = out / "checkpoints"
     scheme = build_scheme(case)
     setup = clock.perf_counter() - started
     fields, stress = scheme_fields(scheme)
+    if distributed and not quiet:
+        print("note: under mpirun no checkpoints are written yet (docs/mpi.md)", file=sys.stderr)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
                        refresh=stress) if case.output["vtk"] else None
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
@@ -265,27 +284,33 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
         return {"history": history, "probes": probes.state(), "vtk": series.entries if series else []}
 
     def finish(status: str) -> dict:
-        probes.write_csv(out)
-        energy_plot(history["time"], history["energy"], out / "energy.png")
-        if case.output["probes"]:
-            probe_plot(probes, out / "probes.png")
+        if parallel.is_root():
+            probes.write_csv(out)
+            energy_plot(history["time"], history["energy"], out / "energy.png")
+            if case.output["probes"]:
+                probe_plot(probes, out / "probes.png")
+        spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
         summary = {
             "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
             "inputs": {"geometry": case.geometry, "materials": case.materials.as_dict(), "T": case.T, "dt": case.dt,
                        "scheme": case.time_scheme.name, "theta": case.time_scheme.theta,
                        "family": case.discretisation.family, "order": case.discretisation.order},
-            "mesh": {"vertices": case.mesh.nv, "cells": case.mesh.ne},
-            "dofs": {"free": scheme.spaces.free_dofs(), "velocity": scheme.spaces.velocity.ndof,
-                     "pressure": sum(scheme.spaces.pressure.FreeDofs()), "stress": scheme.spaces.stress.ndof},
+            "mesh": {"vertices": global_count(vertices, vertices.FreeDofs()),
+                     "cells": round(case.mesh.comm.Sum(case.mesh.ne))},
+            "dofs": {"free": spaces.free_dofs(), "velocity": spaces.velocity.ndofglobal,
+                     "pressure": global_count(spaces.pressure, spaces.pressure.FreeDofs()),
+                     "stress": spaces.stress.ndofglobal},
             "solver": scheme.solver.statistics(),
             "seconds": {"setup": setup, "solver_setup": scheme.solver.factor_seconds,
                         "total": clock.perf_counter() - started},
-            "peak_memory_bytes": peak_memory(),
+            "peak_memory_bytes": max(memory),
+            "ranks": {"size": len(memory), "peak_memory_bytes": memory},
             "resumed_from": resumed_from,
             "energy": history,
             "l2_norms": l2_norms(scheme),
         }
-        write_summary(out / "summary.json", summary)
+        if parallel.is_root():
+            write_summary(out / "summary.json", summary)
         return summary
 
     def advance() -> None:
@@ -298,11 +323,12 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                                f"last good checkpoint: {last if last else 'none'}") from None
 
     every, keep = case.output["every"], case.checkpoint_every
-    with _Interrupt() as interrupt, tqdm(total=case.steps, initial=scheme.n, disable=quiet, unit="step",
-                                         desc=case.path.stem) as bar:
+    comm = case.mesh.comm  # decisions below are taken on every MPI rank alike
+    with _Interrupt() as interrupt, tqdm(total=case.steps, initial=scheme.n, disable=quiet or not parallel.is_root(),
+                                         unit="step", desc=case.path.stem) as bar:
         while scheme.n < case.steps:
             advance()
-            if not np.all(np.isfinite(scheme.state.vec.FV().NumPy())):
+            if not comm.Min(float(np.all(np.isfinite(scheme.state.vec.FV().NumPy())))):
                 last = latest_checkpoint(checkpoints)
                 finish("diverged")
                 raise SolveDiverged(f"the solution is not finite at step {scheme.n} (t = {scheme.time:g}); "
@@ -312,12 +338,13 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             probes.record(scheme)
             if series is not None and (scheme.n % every == 0 or scheme.n == case.steps):
                 series.write(scheme.time, scheme.n)
-            if scheme.n % keep == 0 or interrupt.requested:
+            interrupted = comm.Max(float(interrupt.requested)) > 0
+            if not distributed and (scheme.n % keep == 0 or interrupted):
                 save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
                 prune_checkpoints(checkpoints, keep=2)
             bar.update(1)
             bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GiB", refresh=False)
-            if interrupt.requested:
+            if interrupted:
                 finish("interrupted")
                 raise KeyboardInterrupt
     return finish("completed")

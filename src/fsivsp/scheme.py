@@ -329,7 +329,7 @@ class Scheme:
                 observe(self)
         if steps <= 0:
             return
-        if self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS:
+        if not self.solver.overlap or self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS:
             for _ in range(steps):
                 self.step()
                 if observe is not None:

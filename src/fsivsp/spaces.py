@@ -48,7 +48,16 @@ class Spaces:
 
     def free_dofs(self) -> int:
         """Unknowns of the saddle-point solve (velocity and pressure, Dirichlet dofs excluded)."""
-        return sum(self.mixed.FreeDofs())
+        return global_count(self.mixed, self.mixed.FreeDofs())
+
+
+def global_count(space: ngs.FESpace, dofs: ngs.BitArray) -> int:
+    """How many of the dofs set in ``dofs`` the space has: on a distributed mesh (MPI) over all ranks, each
+    dof shared by ranks counted once."""
+    shared = space.ParallelDofs()
+    if shared is None:
+        return dofs.NumSet()
+    return round(space.mesh.comm.Sum((dofs & shared.MasterDofs()).NumSet()))
 
 
 def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> tuple[ngs.FESpace, int]:
@@ -65,7 +74,7 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
              else locked_fluid_cells(mesh, dirichlet))
     space = ngs.VectorH1(mesh, order=base, dirichlet=dirichlet)
     bubble = mesh.dim + 1
-    if base >= bubble or not cells:
+    if base >= bubble or not mesh.comm.Sum(len(cells)):  # on any rank (Update is collective under MPI)
         return space, 0
     for nr in cells:
         space.SetOrder(ngs.NodeId(ngs.CELL, nr), bubble)

@@ -9,6 +9,7 @@ from typing import Callable
 import ngsolve as ngs
 from tqdm.auto import tqdm
 
+from . import parallel
 from .fields import Field
 from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, refined, region_counts
 from .manufactured import ExactSolution
@@ -123,9 +124,11 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
 
 
 def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
-    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings)."""
+    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings). Under mpirun
+    ``mesh`` is rank 0's whole mesh (None on the others), distributed here."""
     start = clock.perf_counter()
-    scheme, errors_at = discretise(case, mesh)
+    counts, h = parallel.shared(lambda: (region_counts(mesh), max_edge_length(mesh)))
+    scheme, errors_at = discretise(case, parallel.distribute(mesh))
     spaces = scheme.spaces
     setup = clock.perf_counter() - start
     squares: dict[str, float] = {}
@@ -141,13 +144,12 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
     loop = clock.perf_counter() - start
     errors = {name: math.sqrt(value) for name, value in squares.items()}
     errors["total"] = math.sqrt(sum(squares.values()))
-    counts = region_counts(mesh)
     return {
         "level": level,
-        "vertices": mesh.nv,
-        "h": max_edge_length(mesh),
+        "vertices": counts["vertices"],
+        "h": h,
         "dofs": spaces.free_dofs(),
-        "paper_dofs": paper_dofs(counts) if mesh.dim == 2 else None,
+        "paper_dofs": paper_dofs(counts) if spaces.mesh.dim == 2 else None,
         "counts": counts,
         "errors": errors,
         "solver": scheme.solver.method,
@@ -186,13 +188,14 @@ def rates(records: list[dict], dim: int) -> None:
 
 
 def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
-    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh."""
-    coarse = case.coarse_mesh()
+    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh (made on rank 0 under
+    mpirun, and distributed level by level)."""
+    coarse = parallel.on_root(case.coarse_mesh)
     records = []
     for level in tqdm(levels, desc=case.name, disable=quiet, unit="level"):
-        mesh = refined(coarse, level, project=case.project_refinement)
+        mesh = parallel.on_root(refined, coarse, level, case.project_refinement)
         records.append(run_level(case, mesh, level, quiet))
-    rates(records, coarse.dim)
+    rates(records, parallel.shared(lambda: coarse.dim))
     return records
 
 

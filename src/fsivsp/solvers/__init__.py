@@ -2,7 +2,9 @@
 
 - `direct`: factorise the step matrix once, apply the factors at every step (`DirectSolver`);
 - `iterative`: MinRes with a block preconditioner built once (`IterativeSolver`), for sizes where a
-  factorisation no longer fits or pays.
+  factorisation no longer fits or pays;
+- `distributed`: the same MinRes with a preconditioner NGSolve runs over MPI ranks (`DistributedSolver`),
+  taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
 
 `step_solver` picks one by name: ``"auto"`` (the default) takes the direct solver below
 `AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above, for MINI and Taylor–Hood
@@ -17,12 +19,15 @@ import ngsolve as ngs
 
 from .direct import (METHODS, DirectSolver, SolverError, available_methods, compact,
                      default_method, factorise, free_mask, is_symmetric, to_ngsolve, to_scipy_csr)
+from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_solver, unsupported
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 
 __all__ = [
-    "AUTO_ITERATIVE_DOFS", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver", "IterativeSolver",
+    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
+    "DistributedSolver", "IterativeSolver",
     "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
     "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
+    "unsupported",
 ]
 
 #: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension). Memory decides, not
@@ -38,10 +43,12 @@ AUTO_ITERATIVE_ORDERS = (1,)
 
 class StepSolver(Protocol):
     """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: the previous
-    step's solution, a start for an iterative method) and a record for reports."""
+    step's solution, a start for an iterative method) and a record for reports; ``overlap``: whether a solve
+    may run concurrently with other work of the scheme (not when it communicates between MPI ranks)."""
 
     method: str
     factor_seconds: float
+    overlap: bool
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
                    guess: ngs.BaseVector | None = None) -> None: ...
@@ -62,6 +69,8 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     name = "auto" if name is None else name
     if name not in solver_names():
         raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
+    if isinstance(matrix, ngs.la.ParallelMatrix):  # a distributed mesh (mpirun)
+        return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
     if name == "auto":
         large = spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim]
         name = "iterative" if large and (spaces.family == "mini" or spaces.order in AUTO_ITERATIVE_ORDERS) else "direct"

@@ -111,7 +111,9 @@ def compact(matrix) -> ngs.BaseMatrix:
     """The same operator without stored zeros (NGSolve's ``DeleteZeroElements``, in place of memory). A
     form on a product space stores every pair of dofs of an element, so e.g. the velocity mass on
     V_h × Q_h keeps 2.4× its nonzeros (no coupling between components or with the pressure); a product
-    costs its stored entries."""
+    costs its stored entries. A distributed matrix (``ParallelMatrix``, under MPI) is returned as it is."""
+    if isinstance(matrix, ngs.la.ParallelMatrix):
+        return matrix
     return matrix.DeleteZeroElements(0.0)
 
 
@@ -334,6 +336,9 @@ class DirectSolver:
     method, residual (NaN without check), factor_seconds, inverse (an NGSolve
     BaseMatrix, so ``x.data = solver.inverse * r`` works), freedofs.
     """
+
+    #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
+    overlap = True
 
     def __init__(
         self,

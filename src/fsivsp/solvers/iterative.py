@@ -167,6 +167,10 @@ class IterativeSolver:
     """
 
     method = "iterative"
+    #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
+    overlap = True
+    #: Builds the preconditioner (an object with ``mat``) from (matrix, spaces, materials, dt).
+    preconditioner_type = BlockPreconditioner
 
     def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float,
                  tol: float = TOLERANCE, maxiter: int = MAX_ITERATIONS):
@@ -174,7 +178,7 @@ class IterativeSolver:
             raise ValueError(f"tolerance: expected a number in (0, 1), got {tol!r}")
         start = time.perf_counter()
         self.matrix, self.tol, self.maxiter = matrix, tol, maxiter
-        self.preconditioner = BlockPreconditioner(matrix, spaces, materials, dt)
+        self.preconditioner = self.preconditioner_type(matrix, spaces, materials, dt)
         self._free = ngs.Projector(spaces.mixed.FreeDofs(), True)
         self._minres = MinResSolver(matrix, self.preconditioner.mat, tol=None, atol=1.0, maxiter=maxiter)
         self._increment = matrix.CreateColVector()

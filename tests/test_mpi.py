@@ -1,0 +1,179 @@
+"""MPI-distributed runs (docs/mpi.md): ``mpirun -np 2 fsivsp ...`` gives the serial run's numbers, and bad input
+ends every rank with exit 2 and one line. Each test starts mpirun itself, with a timeout (a hung rank fails)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+from importlib.util import find_spec
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from fsivsp import parallel
+from fsivsp.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+MPIRUN = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or shutil.which("mpirun")
+TIMEOUT = 120
+RELATIVE = 1e-6
+
+MISSING = ("mpi4py is not installed" if find_spec("mpi4py") is None
+           else None if MPIRUN else "no mpirun next to the Python executable or on PATH")
+
+needs_mpi = pytest.mark.skipif(MISSING is not None, reason=f"MPI not installed: {MISSING}")
+
+#: A 2D tube with a traction pulse (as in test_run), five steps, probes in the fluid and the solid, a line and
+#: VTK files of steps 0 and 5.
+TUBE = """
+[geometry]
+kind = "elastic_tube"
+dim = 2
+maxh = 0.1
+length = 2.0
+
+[materials]
+rho_fluid = 1.0
+rho_solid = 1.2
+nu = 0.035
+young = 3.0e6
+poisson = 0.3
+
+[time]
+T = 2.5e-4
+dt = 5.0e-5
+
+[discretisation]
+family = "{family}"
+
+[boundary.inflow]
+traction = ["1.0e4*exp(-((t - 0.0002)/0.0001)**2)", "0"]
+
+[boundary.solid_wall]
+traction = ["0", "0"]
+
+[boundary.solid_ends]
+velocity = ["0", "0"]
+
+[output]
+every = 5
+probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]
+lines = [{{ start = [0.0, 0.0], end = [2.0, 0.0], n = 11 }}]
+"""
+
+#: The 3D solid ball in a fluid box of examples/solid_in_fluid_3d.toml (curved), loaded in both media.
+BALL = """
+[geometry]
+kind = "solid_in_fluid"
+dim = 3
+maxh = 0.4
+curvature_safety = 1.0
+
+[materials]
+rho_fluid = 1.0
+rho_solid = 2.0
+nu = 0.5
+lam = 1.5
+mu = 0.75
+
+[time]
+T = 0.1
+dt = 0.02
+
+[data]
+force_fluid = ["sin(pi*y)*t", "0", "0"]
+force_solid = ["0", "x", "0"]
+
+[output]
+vtk = false
+"""
+
+
+def mpirun(*args: str, ranks: int = 2) -> subprocess.CompletedProcess:
+    """``mpirun -np ranks fsivsp args`` with this checkout's sources, as root if need be (CI), on any number of
+    cores; fails the test if it does not end within `TIMEOUT`."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PRTE_MCA_rmaps_default_mapping_policy=":oversubscribe")
+    return subprocess.run([MPIRUN, "-np", str(ranks), sys.executable, "-m", "fsivsp.cli", *args],
+                          capture_output=True, text=True, env=env, timeout=TIMEOUT)
+
+
+def assert_close(serial: dict, distributed: dict, where: str) -> None:
+    for name, value in serial.items():
+        assert distributed[name] == pytest.approx(value, rel=RELATIVE, abs=1e-300), f"{where}: {name}"
+
+
+def test_serial_helpers_are_identities():
+    """Without mpirun nothing imports MPI and the helpers do the serial thing."""
+    assert parallel.world() is None and parallel.size() == 1 and parallel.is_root()
+    assert parallel.shared(lambda a: a + 1, 1) == 2 and parallel.on_root(lambda: 3) == 3
+    assert parallel.settle(5) == 5 and parallel.gather(7) == [7]
+
+
+@needs_mpi
+@pytest.mark.parametrize("text, family", [(TUBE, "mini"), (BALL, None)], ids=["tube-2d", "ball-3d"])
+def test_run_equals_serial(tmp_path, text, family):
+    """``fsivsp run`` on 2 ranks: the same counts, energies at every step and final L² norms as the serial run."""
+    case = tmp_path / "case.toml"
+    case.write_text(text.format(family=family))
+    assert main(["run", str(case), "--out", str(tmp_path / "serial"), "--quiet"]) == 0
+    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
+    assert distributed["solver"]["method"] == "distributed" and distributed["ranks"]["size"] == 2
+    assert (distributed["mesh"], distributed["dofs"]) == (serial["mesh"], serial["dofs"])
+    assert_close(serial["l2_norms"], distributed["l2_norms"], "L² norm")
+    assert_close(dict(enumerate(serial["energy"]["energy"])), dict(enumerate(distributed["energy"]["energy"])),
+                 "energy at step")
+    for table in ("probes.csv", "lines.csv") if "probes" in text else ():  # each point evaluated on one rank
+        expected, got = (np.genfromtxt(tmp_path / name / table, delimiter=",", skip_header=1, ndmin=2)
+                         for name in ("serial", "mpi"))
+        scale = np.nanmax(np.where(np.isnan(expected), 0.0, np.abs(expected)), axis=0)  # per column
+        close = np.isclose(got, expected, rtol=RELATIVE, atol=0.0, equal_nan=True) \
+            | (np.abs(got - expected) <= RELATIVE * scale)  # NaN: the pressure at a point in the solid
+        assert close.all(), f"{table}: rows, columns {np.argwhere(~close)[:5].tolist()}"
+    if "every = 5" in text:  # one piece per rank with cells (rank 0 has none), all cells, the same largest values
+        whole = meshio.read(tmp_path / "serial" / "vtk" / "fields_000005.vtu")
+        pieces = [meshio.read(tmp_path / "mpi" / "vtk" / "fields_000005_proc1.vtu")]
+        assert "fields_000005_proc1.vtu" in (tmp_path / "mpi" / "vtk" / "fields.pvd").read_text()
+        assert sum(len(c.data) for p in pieces for c in p.cells) == sum(len(c.data) for c in whole.cells)
+        for name, values in whole.point_data.items():
+            assert max(abs(p.point_data[name]).max() for p in pieces) == pytest.approx(abs(values).max(), rel=RELATIVE)
+
+
+@needs_mpi
+@pytest.mark.parametrize("command", [["paper", "--dt", "0.1", "--levels", "0-2"],
+                                     ["study", str(ROOT / "examples" / "fluid_over_solid_2d.toml"), "--levels", "0-1"]],
+                         ids=["paper", "study-2d"])
+def test_errors_equal_serial(tmp_path, command):
+    """The paper's experiment (levels 0–2) and a 2D Taylor–Hood study on 2 ranks: every error norm as in the serial
+    run."""
+    assert main([*command, "--json", str(tmp_path / "serial.json"), "--quiet"]) == 0
+    done = mpirun(*command, "--json", str(tmp_path / "mpi.json"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name).read_text()) for name in ("serial.json", "mpi.json"))
+    assert [r["level"] for r in distributed] == [r["level"] for r in serial]
+    for s, d in zip(serial, distributed):
+        assert d["solver"] == "distributed" and (d["vertices"], d["dofs"]) == (s["vertices"], s["dofs"])
+        assert_close(s["errors"], d["errors"], f"level {s['level']}")
+
+
+@needs_mpi
+@pytest.mark.parametrize("old, new, args, message", [
+    ("[boundary.solid_ends]", "[boundary.nowhere]", [],  # found while meshing, on rank 0 only
+     "error: boundary.nowhere: no boundary of that name"),
+    ("", "", ["--resume"], "error: --resume: no checkpoints are written under mpirun yet"),
+    ('family = "mini"', 'family = "mini"\nsolver = "direct"', [],
+     "error: discretisation.solver: 'direct' does not run under mpirun"),
+], ids=["boundary", "resume", "direct-solver"])
+def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
+    """Exit 2 (mpirun's code: every rank's), the error printed once, no rank left running (the timeout)."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace(old, new))
+    done = mpirun("run", str(case), "--out", str(tmp_path / "out"), *args)
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and ours[0].startswith(message), done.stderr
+    assert "Traceback" not in done.stderr
