@@ -342,14 +342,17 @@ class Scheme:
         if self._lag_work is None:
             self._lag_work = (self.state.vec.CreateVector(), ngs.GridFunction(self.spaces.mixed))
         first, scheme, lagged = self.n, self.time_scheme, self._lagged
-        newest = scheme.velocity(self.dt)[1]   # the coefficient of vⁿ in aⁿ⁺¹
+        _, newest, _, older = scheme.velocity(self.dt)   # the coefficients of vⁿ and vⁿ⁻¹ in aⁿ⁺¹
+        # R vʲ, formed for step j + 1's right-hand side, is kept for step j + 2's (BDF2's vⁿ⁻¹ term)
+        products = (self._rhs.CreateVector(), self._rhs.CreateVector()) if older else None
         self._right_hand_side(scheme, first + 1, rhs[1], boundaries[1])
 
         def finish_previous(j: int) -> None:
             if j > 1:
                 self._accept(solutions[(j - 1) % 2], first + j - 1, scheme, observe)
             if j < steps:
-                self._lagged_data(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], first + j + 1)
+                self._lagged_data(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], first + j + 1,
+                                  products[(j - 1) % 2] if products and j > 1 else None)
 
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
             for j in range(1, steps + 1):
@@ -357,7 +360,10 @@ class Scheme:
                 self.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2],
                                        self._guess() if j == 1 else solutions[(j - 1) % 2])
                 finished.result()
-                if j < steps:
+                if j < steps and products:
+                    products[j % 2].data = lagged * solutions[j % 2]
+                    rhs[(j + 1) % 2].data += newest * products[j % 2]
+                elif j < steps:
                     rhs[(j + 1) % 2].data += newest * (lagged * solutions[j % 2])
         self._accept(solutions[steps % 2], first + steps, scheme, observe)
 
@@ -414,10 +420,12 @@ class Scheme:
         out.data -= weight * (self._stiffness * work)
         self._add_data(out, boundary, current.loads(n, dt), n * dt, lift)
 
-    def _lagged_data(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int) -> None:
+    def _lagged_data(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int,
+                     product: ngs.BaseVector | None = None) -> None:
         """Into ``out`` step n's right-hand side but for its term in vⁿ⁻¹, while vⁿ⁻¹ is being solved for
         (the history holds level n − 2): with uⁿ⁻¹ = ũⁿ⁻¹ + τ vⁿ⁻¹ the term K eⁿ does not see vⁿ⁻¹
-        (e_u τ + e_v = 0), only R aⁿ does. The Dirichlet values into ``boundary``."""
+        (e_u τ + e_v = 0), only R aⁿ does. ``product``: R vⁿ⁻² if already formed. The Dirichlet values
+        into ``boundary``."""
         scheme, dt = self.time_scheme, self.dt
         work, explicit = self._lag_work
         self._combine(scheme.explicit(dt), explicit.vec)                  # ũⁿ⁻¹
@@ -431,7 +439,7 @@ class Scheme:
         out.data -= weight * (self._stiffness * work)
         a = scheme.velocity(dt)
         if a[3]:
-            out.data += a[3] * (self._lagged * self.state.vec)
+            out.data += a[3] * (self._lagged * self.state.vec if product is None else product)
         self._add_data(out, boundary, scheme.loads(n, dt), n * dt)
 
     def _add_data(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, loads: list[tuple[float, float]],
