@@ -161,7 +161,8 @@ def test_bad_time_scheme_exit_2(tmp_path, capsys, lines, field):
 
 @pytest.mark.parametrize("args", [["--dt", "0.1,0.1"], ["--dt", "0.05,0.1"], ["--dt", "0.1,-0.05"], ["--dt", "x"],
                                   ["--scheme", "rk4"], ["--scheme", "theta", "--theta", "0.3"],
-                                  ["--scheme", "bdf2", "--theta", "0.5"]])
+                                  ["--scheme", "bdf2", "--theta", "0.5"], ["--dt", "0.1", "--level", "9"],
+                                  ["--dt", "0.1", "--level", "1-2"]])
 def test_bad_study_options_exit_2(capsys, args):
     assert main(["study", "examples/time_convergence_2d.toml", *args, "--quiet"]) == 2
     err = capsys.readouterr().err.strip()

@@ -45,6 +45,17 @@ def levels_arg(text: str) -> range:
     return range(low, high + 1)
 
 
+def level_arg(text: str) -> int:
+    """One refinement level, 0 <= level <= MAX_LEVEL."""
+    try:
+        level = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if not 0 <= level <= MAX_LEVEL:
+        raise argparse.ArgumentTypeError(f"expected 0 <= level <= {MAX_LEVEL}, got {text!r}")
+    return level
+
+
 def positive_float(text: str) -> float:
     """A finite number > 0."""
     try:
@@ -151,7 +162,7 @@ def build_parser() -> Parser:
     study.add_argument("--levels", type=levels_arg, default=range(0, 3), help="refinement levels, 'A-B' or 'A' (default 0-2)")
     study.add_argument("--dt", type=dt_list, default=None, metavar="LIST",
                        help="a study in time instead: comma-separated, decreasing time steps on refinement --level")
-    study.add_argument("--level", type=int, default=0, help="the refinement level of a study in time (default 0)")
+    study.add_argument("--level", type=level_arg, default=0, help="the refinement level of a study in time (default 0)")
     scheme_options(study)
     study.add_argument("--json", type=Path, default=None, metavar="PATH",
                        help="write one record per level (per time step with --dt) to PATH")
