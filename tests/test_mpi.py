@@ -15,6 +15,8 @@ import pytest
 from fsivsp import parallel
 from fsivsp.cli import main
 
+from test_run import CASE
+
 ROOT = Path(__file__).resolve().parents[1]
 MPIRUN = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or shutil.which("mpirun")
 TIMEOUT = 120
@@ -27,61 +29,13 @@ needs_mpi = pytest.mark.skipif(MISSING is not None, reason=f"MPI not installed: 
 
 #: A 2D tube with a traction pulse (as in test_run), five steps, probes in the fluid and the solid, a line and
 #: VTK files of steps 0 and 5.
-TUBE = """
-[geometry]
-kind = "elastic_tube"
-dim = 2
-maxh = 0.1
-length = 2.0
-
-[materials]
-rho_fluid = 1.0
-rho_solid = 1.2
-nu = 0.035
-young = 3.0e6
-poisson = 0.3
-
-[time]
-T = 2.5e-4
-dt = 5.0e-5
-
-[discretisation]
-family = "{family}"
-
-[boundary.inflow]
-traction = ["1.0e4*exp(-((t - 0.0002)/0.0001)**2)", "0"]
-
-[boundary.solid_wall]
-traction = ["0", "0"]
-
-[boundary.solid_ends]
-velocity = ["0", "0"]
-
-[output]
-every = 5
-probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]
-lines = [{{ start = [0.0, 0.0], end = [2.0, 0.0], n = 11 }}]
-"""
+TUBE = (CASE.replace("T = {T}", "T = 2.5e-4").replace('family = "mini"', 'family = "{family}"')
+        .replace("(t - 0.0005)/0.0002", "(t - 0.0002)/0.0001").replace("every = 10", "every = 5")
+        .replace("probes = [[0.5, 0.0], [1.0, 0.0]]", "probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]")
+        .replace("[checkpoint]\nevery = {every}\n", ""))
 
 #: The 3D solid ball in a fluid box of examples/solid_in_fluid_3d.toml (curved), loaded in both media.
-BALL = """
-[geometry]
-kind = "solid_in_fluid"
-dim = 3
-maxh = 0.4
-curvature_safety = 1.0
-
-[materials]
-rho_fluid = 1.0
-rho_solid = 2.0
-nu = 0.5
-lam = 1.5
-mu = 0.75
-
-[time]
-T = 0.1
-dt = 0.02
-
+BALL = (ROOT / "examples" / "solid_in_fluid_3d.toml").read_text().split("[discretisation]")[0] + """
 [data]
 force_fluid = ["sin(pi*y)*t", "0", "0"]
 force_solid = ["0", "x", "0"]
