@@ -149,6 +149,7 @@ class Scheme:
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._lag_work = None                   # `march`'s second thread's vectors, made on first use
+        self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
         self.initialise()
 
     # -- precomputation -------------------------------------------------------------
@@ -503,7 +504,9 @@ class Scheme:
         E(U¹ − U⁰) (the Crank–Nicolson start's level n − 1 is U⁰)."""
         if self.previous is None or self.n == 0:
             return self._energy(self.state.vec, self.carried.vec)
-        x, u = self.state.vec.CreateVector(), self.state.vec.CreateVector()
+        if self._extrapolated is None:
+            self._extrapolated = (self.state.vec.CreateVector(), self.state.vec.CreateVector())
+        x, u = self._extrapolated
         x.data = 2 * self.state.vec - self.previous[0]
         u.data = 2 * self.carried.vec - self.previous[1]
         return 0.5 * (self._energy(self.state.vec, self.carried.vec) + self._energy(x, u))
