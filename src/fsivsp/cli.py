@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import multiprocessing
 import os
 import sys
@@ -86,37 +85,35 @@ def positive_int(text: str) -> int:
 
 
 def dt_list(text: str) -> list[float]:
-    """'0.1,0.05,0.025': positive, strictly decreasing time steps."""
+    """'0.1,0.05,0.025': positive, strictly decreasing time steps (`study.check_time_steps`)."""
+    from .study import check_time_steps
+
     try:
-        steps = [float(item) for item in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
-    if any(not math.isfinite(dt) or dt <= 0 for dt in steps) or any(b >= a for a, b in zip(steps, steps[1:])):
-        raise argparse.ArgumentTypeError(f"expected positive, strictly decreasing time steps, got {text!r}")
-    return steps
-
-
-def theta_arg(text: str) -> float:
-    value = positive_float(text)
-    if not 0.5 <= value <= 1:
-        raise argparse.ArgumentTypeError(f"expected a number in [0.5, 1], got {text!r}")
-    return value
+        return check_time_steps([float(item) for item in text.split(",")])
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"expected comma-separated, positive, strictly decreasing time steps, "
+                                         f"got {text!r}") from error
 
 
 def scheme_options(parser: argparse.ArgumentParser) -> None:
     """--scheme and --theta (`timeschemes`); without them the case's (paper: backward Euler)."""
     parser.add_argument("--scheme", choices=SCHEMES, default=None,
                         help="time scheme (default: the case's [time] scheme; backward_euler)")
-    parser.add_argument("--theta", type=theta_arg, default=None, help="θ of --scheme theta (default 0.5)")
+    parser.add_argument("--theta", type=float, default=None, help="θ of --scheme theta, in [1/2, 1] (default 0.5)")
 
 
 def chosen_scheme(args, default):
     """The time scheme of --scheme/--theta, or ``default``."""
     from .timeschemes import time_scheme
 
-    if args.theta is not None and args.scheme != "theta":
-        raise UsageError("--theta: only with --scheme theta")
-    return default if args.scheme is None else time_scheme(args.scheme, args.theta)
+    if args.scheme is None:
+        if args.theta is not None:
+            raise UsageError("--theta: only with --scheme theta")
+        return default
+    try:
+        return time_scheme(args.scheme, args.theta)
+    except ValueError as error:  # "theta: ..."
+        raise UsageError(f"--{error}") from None
 
 
 def build_parser() -> Parser:
@@ -235,7 +232,6 @@ def paper_command(args) -> int:
     distributed_check("paper", args.solver, args.initial_velocity, "--all" if args.all else None)
     options = paper_options(args)
     scheme = options["time_scheme"]
-    label = {"backward_euler": "backward Euler", "bdf2": "BDF2"}.get(scheme.name, f"the θ-scheme (θ = {scheme.theta:g})")
     out = args.out or Path("paper-report" if scheme.name == "backward_euler" else f"paper-report-{scheme.name}")
     if not args.all:
         case = paper_case(args.dt, **options)
@@ -261,7 +257,7 @@ def paper_command(args) -> int:
     wall = time.perf_counter() - start
     series, references = {}, {}
     lines = ["# fsivsp: the experiment of Section 5.3", "",
-             f"MINI element, {label}, T = 1; initial stress from the {args.initial_stress}; "
+             f"MINI element, {scheme.label}, T = 1; initial stress from the {args.initial_stress}; "
              f"refinement {'with' if args.project else 'without'} projection onto the circle. "
              f"Wall time {wall:.0f} s on {args.jobs} process(es).", "",
              "Errors with the paper's in parentheses; dofs in the paper's convention.", ""]

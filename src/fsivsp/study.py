@@ -214,10 +214,16 @@ def time_rates(records: list[dict]) -> None:
         previous = record
 
 
+def check_time_steps(steps: list[float]) -> list[float]:
+    """``steps`` if they are finite, positive and strictly decreasing, else ValueError."""
+    if not steps or not all(math.isfinite(dt) and dt > 0 for dt in steps) or any(b >= a for a, b in zip(steps, steps[1:])):
+        raise ValueError(f"dt: expected positive, strictly decreasing time steps, got {steps}")
+    return steps
+
+
 def time_study(case: Case, level: int, steps: list[float], quiet: bool = True) -> list[dict]:
     """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing)."""
-    if not steps or any(dt <= 0 for dt in steps) or any(b >= a for a, b in zip(steps, steps[1:])):
-        raise ValueError(f"dt: expected positive, strictly decreasing time steps, got {steps}")
+    check_time_steps(steps)
     mesh = refined(case.coarse_mesh(), level, project=case.project_refinement)
     records = []
     for dt in tqdm(steps, desc=case.name, disable=quiet, unit="dt"):

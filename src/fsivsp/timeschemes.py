@@ -47,6 +47,10 @@ class Theta:
     def name(self) -> str:
         return "backward_euler" if self.theta == 1.0 else "theta"
 
+    @property
+    def label(self) -> str:
+        return "backward Euler" if self.theta == 1.0 else f"the θ-scheme (θ = {self.theta:g})"
+
     #: history levels a step reads (vⁿ⁻¹, uⁿ⁻¹)
     levels = 1
 
@@ -102,6 +106,7 @@ class BDF2:
     """The two-step backward differentiation formula, started by one Crank–Nicolson step."""
 
     name = "bdf2"
+    label = "BDF2"
     theta = 1.0
     levels = 2
 
