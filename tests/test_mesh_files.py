@@ -14,6 +14,7 @@ import pytest
 from fsivsp.cli import main
 from fsivsp.geometry import (FLUID, INTERFACE, SOLID, SOLID_WALL, GeometryError, build_geometry, interface_normal,
                              load_mesh, refined)
+from fsivsp.quadratic import curve, quadratic_cells
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 STEP = EXAMPLES / "cylinder_in_box.step"
@@ -56,14 +57,15 @@ def write(mesh: meshio.Mesh, path: Path, form: str = "41-ascii") -> Path:
     return path
 
 
-def measures(mesh: ngs.Mesh) -> list[float]:
-    """|Ω_F|, |Ω_S|, |Γ| and the flux of x - centre through the outer wall (> 0: outward normals)."""
+def measures(mesh: ngs.Mesh, order: int = 0) -> list[float]:
+    """|Ω_F|, |Ω_S|, |Γ| and the flux of x - centre through the outer wall (> 0: outward normals), integrated
+    with NGSolve's rules of at least ``order``."""
     centre = ngs.CF((ngs.x - 0.5, ngs.y - 0.5) + ((ngs.z - 0.5,) if mesh.dim == 3 else ()))
-    return [ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID)),
-            ngs.Integrate(1, mesh, definedon=mesh.Materials(SOLID)),
-            ngs.Integrate(1, mesh, ngs.BND, definedon=mesh.Boundaries(INTERFACE)),
+    return [ngs.Integrate(1, mesh, definedon=mesh.Materials(FLUID), order=order),
+            ngs.Integrate(1, mesh, definedon=mesh.Materials(SOLID), order=order),
+            ngs.Integrate(1, mesh, ngs.BND, definedon=mesh.Boundaries(INTERFACE), order=order),
             ngs.Integrate(ngs.specialcf.normal(mesh.dim) * centre, mesh, ngs.BND,
-                          definedon=mesh.Boundaries(SOLID_WALL))]
+                          definedon=mesh.Boundaries(SOLID_WALL), order=order)]
 
 
 # --------------------------------------------------------------------------------------------
@@ -86,26 +88,91 @@ def test_gmsh_formats_round_trip(tmp_path, dim, form):
     assert refined(loaded, 1).ne == 2**dim * mesh.ne
 
 
-@pytest.mark.parametrize("dim", [2, 3])
-def test_second_order_cells_keep_their_corners(tmp_path, dim):
-    """triangle6/tetra10 (and line3/triangle6 facets): the mid-edge nodes are dropped."""
-    first = to_meshio(ball(dim))
-    edges = {"line": [(0, 1)], "triangle": [(0, 1), (1, 2), (2, 0)],
-             "tetra": [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]}
-    upgrade = {"line": "line3", "triangle": "triangle6", "tetra": "tetra10"}
-    points, cells = [first.points], []
-    count = len(first.points)
-    for block in first.cells:
-        middles = [(first.points[block.data[:, i]] + first.points[block.data[:, j]]) / 2 for i, j in edges[block.type]]
+#: the corners of each mid-edge node in meshio's order (`geometry.MID_EDGES`), and NGSolve's reference vertices
+MID_EDGES = {"line": [(0, 1)], "triangle": [(0, 1), (1, 2), (0, 2)],
+             "tetra": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]}
+SECOND_ORDER = {"line": "line3", "triangle": "triangle6", "tetra": "tetra10"}
+REFERENCE = {2: [(1, 0), (0, 1), (0, 0)], 3: [(1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, 0)]}
+
+
+def mid_edge_nodes(mesh: ngs.Mesh) -> dict[tuple[int, int], np.ndarray]:
+    """Each edge (sorted vertex numbers) → the point of the mesh's (possibly curved) cell map at the middle of
+    the edge's reference edge."""
+    dim, reference = mesh.dim, np.array(REFERENCE[mesh.dim], dtype=float)
+    pairs = MID_EDGES[("triangle", "tetra")[dim - 2]]
+    rule = ngs.IntegrationRule([tuple((reference[i] + reference[j]) / 2) for i, j in pairs], [0.0] * len(pairs))
+    mapped = ngs.CF((ngs.x, ngs.y, ngs.z)[:dim])(mesh.MapToAllElements(rule, ngs.VOL)).reshape(mesh.ne, len(pairs), dim)
+    nodes = {}
+    for el, points in zip(mesh.Elements(ngs.VOL), mapped):
+        corners = [v.nr for v in el.vertices]
+        for (i, j), point in zip(pairs, points):
+            nodes[tuple(sorted((corners[i], corners[j])))] = np.append(point, [0.0] * (3 - dim))
+    return nodes
+
+
+def second_order(first: meshio.Mesh, nodes: dict[tuple[int, int], np.ndarray] | None = None) -> meshio.Mesh:
+    """``first`` with line3/triangle6/tetra10 cells: the mid-edge nodes from ``nodes`` (default: the midpoints)."""
+    points, cells, count = [first.points], [], len(first.points)
+    owners = [first.point_data["gmsh:dim_tags"]]
+    for block, tags in zip(first.cells, first.cell_data["gmsh:physical"]):
+        middles = [np.array([nodes[tuple(sorted(e))] for e in block.data[:, [i, j]].tolist()]) if nodes else
+                   (first.points[block.data[:, i]] + first.points[block.data[:, j]]) / 2
+                   for i, j in MID_EDGES[block.type]]
         numbers = count + np.arange(len(middles) * len(block.data)).reshape(len(middles), -1).T
         count += numbers.size
         points += middles
-        cells.append((upgrade[block.type], np.hstack([block.data, numbers])))
-    second = meshio.Mesh(np.vstack(points), cells, cell_data={"gmsh:physical": first.cell_data["gmsh:physical"]},
-                         field_data=first.field_data)
-    loaded = load_mesh(write(second, tmp_path / "quadratic.msh", "22-ascii"))
+        owners.append(np.tile([block.dim, tags[0]], (numbers.size, 1)))
+        cells.append((SECOND_ORDER[block.type], np.hstack([block.data, numbers])))
+    return meshio.Mesh(np.vstack(points), cells, point_data={"gmsh:dim_tags": np.vstack(owners)},
+                       cell_data={key: first.cell_data[key] for key in ("gmsh:physical", "gmsh:geometrical")},
+                       field_data=first.field_data)
+
+
+def curved_ball(dim: int) -> ngs.Mesh:
+    """The coarse fluid_in_solid mesh with netgen's order-2 curved cells."""
+    mesh = build_geometry("fluid_in_solid", dim, 0.15 if dim == 2 else 0.4, curvature_safety=1.0)
+    mesh.Curve(2)
+    return mesh
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_straight_second_order_cells_keep_their_corners(tmp_path, dim):
+    """triangle6/tetra10 (and line3/triangle6 facets) with every mid-edge node at its edge's midpoint: the
+    straight mesh on the corners, without quadratic cells."""
+    loaded = load_mesh(write(second_order(to_meshio(ball(dim))), tmp_path / "quadratic.msh", "22-ascii"))
     assert (loaded.nv, loaded.ne) == (ball(dim).nv, ball(dim).ne)
+    assert quadratic_cells(loaded) is None
     assert measures(loaded) == pytest.approx(measures(ball(dim)), rel=1e-12)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_second_order_cells_curve_the_mesh(tmp_path, dim):
+    """Mid-edge nodes on netgen's order-2 curved cells: `curve` to order 2 gives netgen's curved mesh (volumes,
+    interface, normals) to round-off, and so does its uniform refinement (whose cells are the same quadratic
+    map; volumes by rules of order 6, exact for the cubic det ∇x, surfaces by order 12, for their
+    non-polynomial length element); order 1 leaves it straight."""
+    netgen = curved_ball(dim)
+    path = write(second_order(to_meshio(netgen), mid_edge_nodes(netgen)), tmp_path / "curved.msh", "41-binary")
+    expected = measures(netgen)
+    assert expected != pytest.approx(measures(ball(dim)), rel=1e-4)  # the curvature is visible
+    loaded = load_mesh(path)
+    curve(loaded, 1)
+    assert measures(loaded) == pytest.approx(measures(ball(dim)), rel=1e-12)
+    curve(loaded := load_mesh(path), 2)
+    assert measures(loaded) == pytest.approx(expected, rel=1e-12)
+    curve(fine := refined(load_mesh(path), 1), 2)
+    for order, parts in ((6, slice(0, 2)), (12, slice(2, 4))):
+        assert measures(fine, order)[parts] == pytest.approx(measures(netgen, order)[parts], rel=1e-10)
+
+
+def test_second_order_cells_must_agree(tmp_path):
+    """Two cells along one edge with different mid-edge nodes: one line naming the edge."""
+    first = to_meshio(ball(2))
+    nodes = {edge: point + 0.01 for edge, point in mid_edge_nodes(ball(2)).items()}
+    quadratic = second_order(first, nodes)
+    quadratic.points[quadratic.cells[0].data[0, 3]] += 0.02  # one fluid triangle's node only
+    with pytest.raises(GeometryError, match=r"mesh file .*: the cells along the edge at \(.*\) have different mid-edge nodes"):
+        load_mesh(write(quadratic, tmp_path / "apart.msh", "41-ascii"))
 
 
 def study_errors(tmp_path, dim, geometry: str, name: str) -> list[dict]:
@@ -135,10 +202,46 @@ def test_study_on_gmsh_equals_netgen_format(tmp_path, dim):
         assert b == pytest.approx(a, rel=1e-10, abs=1e-14)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_study_on_second_order_gmsh_equals_curved_netgen(tmp_path, dim):
+    """Taylor–Hood k = 1 on curved cells: `fsivsp study` on a gmsh 4.1 file of tetra10/triangle6 cells gives the
+    errors of the netgen mesh curved to order 2 (the same cells), on the coarse level."""
+    netgen_file, gmsh_file = tmp_path / "mesh.vol", tmp_path / "mesh.msh"
+    ball(dim).ngmesh.Save(str(netgen_file))
+    write(second_order(to_meshio(ball(dim)), mid_edge_nodes(curved_ball(dim))), gmsh_file, "41-binary")
+    example = (EXAMPLES / f"fluid_in_solid_{dim}d.toml").read_text()
+    example = example.replace('family = "mini"', 'family = "taylor_hood"').replace("curved = false", "curved = true")
+    errors = []
+    for path in (netgen_file, gmsh_file):
+        case, out = tmp_path / f"{path.suffix[1:]}.toml", tmp_path / f"{path.suffix[1:]}.json"
+        case.write_text(example.replace(STUDIES[3][1] if dim == 3 else 'kind = "fluid_in_solid"\ndim = 2\nmaxh = 0.15',
+                                        f'kind = "mesh"\ndim = {dim}\npath = "{path}"'))
+        assert 'family = "taylor_hood"' in case.read_text() and "path" in case.read_text()
+        assert main(["study", str(case), "--levels", "0", "--json", str(out), "--quiet"]) == 0
+        errors.append(json.loads(out.read_text())[0]["errors"])
+    assert errors[1] == pytest.approx(errors[0], rel=1e-10, abs=1e-14)
+
+
 def test_run_on_a_gmsh_file(tmp_path):
     """`fsivsp run` end to end on a gmsh 4.1 file (2D): the run's case with `kind = "mesh"`."""
     mesh_file = write(to_meshio(build_geometry("fluid_over_solid", 2, 0.15)), tmp_path / "layers.msh", "41-ascii")
-    case = tmp_path / "layers.toml"
+    run_on(tmp_path, mesh_file)
+
+
+def test_run_on_a_second_order_gmsh_file(tmp_path):
+    """`fsivsp run` with Taylor–Hood on triangle6 cells: the VTK output shows the curved interface (its
+    subdivided cells have points off the straight chords, on the circle to the quadratic cells' accuracy)."""
+    mesh_file = write(second_order(to_meshio(ball(2)), mid_edge_nodes(curved_ball(2))), tmp_path / "disk.msh")
+    out = run_on(tmp_path, mesh_file, '[discretisation]\nfamily = "taylor_hood"\n\n[output]\nsubdivision = 2')
+    radii = np.linalg.norm(meshio.read(sorted((out / "vtk").glob("fields_*.vtu"))[-1]).points[:, :2] - 0.5, axis=1)
+    near = radii[np.abs(radii - 0.25) < 0.02]
+    chords = sum(el.mat == INTERFACE for el in ball(2).Elements(ngs.BND))
+    assert np.abs(near - 0.25).max() < 1e-3 < 0.25 * (1 - math.cos(math.pi / chords))  # measured 1.6e-4; chords: 1.2e-2
+
+
+def run_on(tmp_path: Path, mesh_file: Path, extra: str = "") -> Path:
+    """`fsivsp run` of a short forced case on ``mesh_file``; its output folder."""
+    case = tmp_path / "case.toml"
     case.write_text(f"""
 [geometry]
 kind = "mesh"
@@ -159,7 +262,7 @@ dt = 0.01
 [data]
 force_fluid = ["1", "0"]
 
-[output]
+{extra or "[output]"}
 probes = [[0.5, 0.75]]
 """)
     out = tmp_path / "out"
@@ -167,6 +270,7 @@ probes = [[0.5, 0.75]]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "completed" and summary["step"] == 3 and summary["l2_norms"]["velocity"] > 0
     assert len(list((out / "vtk").glob("fields_*.vtu"))) >= 2
+    return out
 
 
 def test_study_on_step_equals_netgen_format(tmp_path):

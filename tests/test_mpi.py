@@ -131,3 +131,19 @@ def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(ours) == 1 and ours[0].startswith(message), done.stderr
     assert "Traceback" not in done.stderr
+
+
+@needs_mpi
+def test_second_order_mesh_file_is_refused(tmp_path):
+    """A gmsh file of curved triangle6 cells: one line naming the file, exit 2 on every rank."""
+    from test_mesh_files import ball, curved_ball, mid_edge_nodes, second_order, to_meshio, write
+
+    mesh_file = write(second_order(to_meshio(ball(2)), mid_edge_nodes(curved_ball(2))), tmp_path / "disk.msh")
+    case = tmp_path / "case.toml"
+    case.write_text((ROOT / "examples" / "fluid_in_solid_2d.toml").read_text().replace(
+        'kind = "fluid_in_solid"\ndim = 2\nmaxh = 0.15', f'kind = "mesh"\ndim = 2\npath = "{mesh_file}"'))
+    done = mpirun("study", str(case), "--levels", "0", "--quiet")
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert ours == [f"error: mesh file {mesh_file}: second-order cells are not supported under mpirun "
+                    "(run serially, or write the file with first-order cells)"], done.stderr

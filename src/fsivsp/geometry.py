@@ -34,7 +34,10 @@ from typing import Any, Callable, Sequence
 import ngsolve as ngs
 import netgen.meshing as nm
 import numpy as np
+
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
+
+from . import quadratic
 
 FLUID, SOLID = "fluid", "solid"
 INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
@@ -111,7 +114,7 @@ def netgen_mesh(dim: int, points: np.ndarray, materials: Sequence[str], cells: S
 def refined(mesh: ngs.Mesh, levels: int, project: bool = True) -> ngs.Mesh:
     """``levels`` uniform red refinements (each triangle into four, each tetrahedron into eight, by
     the edge midpoints). With ``project`` the new boundary and interface nodes are moved onto the
-    true (curved) geometry.
+    true (curved) geometry. A mesh file's quadratic cells (`quadratic`) go with the refined mesh.
 
     netgen's red refinement, not NGSolve's ``Mesh.Refine`` (bisection of marked elements): on the
     same vertices, bisection leaves half of the triangles in a different pattern, so that the
@@ -122,7 +125,7 @@ def refined(mesh: ngs.Mesh, levels: int, project: bool = True) -> ngs.Mesh:
     ngmesh = mesh.ngmesh.Copy() if project else without_geometry(mesh).ngmesh
     for _ in range(levels):
         ngmesh.Refine(adaptive=False)
-    return ngs.Mesh(ngmesh)
+    return quadratic.carry(mesh, ngs.Mesh(ngmesh))
 
 
 def check_regions(mesh: ngs.Mesh) -> None:
@@ -133,6 +136,14 @@ def check_regions(mesh: ngs.Mesh) -> None:
             raise GeometryError(f"mesh: no volume region named '{name}' (found {sorted(materials)})")
     if INTERFACE not in boundaries:
         raise GeometryError(f"mesh: no boundary region named '{INTERFACE}' (found {sorted(boundaries)})")
+
+
+def check_distributable(mesh: ngs.Mesh) -> None:
+    """Refuse, under mpirun, a mesh file's quadratic cells (`quadratic`): they are kept on the whole mesh."""
+    cells = quadratic.quadratic_cells(mesh)
+    if cells is not None:
+        raise GeometryError(f"mesh file {cells.source}: second-order cells are not supported under mpirun "
+                            "(run serially, or write the file with first-order cells)")
 
 
 def region_counts(mesh: ngs.Mesh) -> dict[str, int]:
@@ -366,9 +377,12 @@ def elastic_tube(dim: int = 2, maxh: float | None = None, *, radius: float = 0.5
 MESH_SUFFIXES = (".msh", ".vol", ".vol.gz")
 CAD_SUFFIXES = (".step", ".stp", ".brep", ".iges", ".igs")
 
-#: meshio cell type → (dimension, corner count); second-order cells keep only their corners.
+#: meshio cell type → (dimension, corner count); the nodes after the corners are mid-edge nodes.
 GMSH_CELLS = {"line": (1, 2), "line3": (1, 2), "triangle": (2, 3), "triangle6": (2, 3),
               "tetra": (3, 4), "tetra10": (3, 4)}
+#: the edge (pair of corners) of each mid-edge node, in meshio's order (which it converts from gmsh's)
+MID_EDGES = {"line3": [(0, 1)], "triangle6": [(0, 1), (1, 2), (0, 2)],
+             "tetra10": [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]}
 IGNORED_CELLS = {"vertex"}  # physical points
 NAMES_HINT = f"name the physical groups '{FLUID}', '{SOLID}', '{INTERFACE}' (and '{FLUID_WALL}', '{SOLID_WALL}')"
 
@@ -410,9 +424,10 @@ def _read_gmsh(path: Path):
         raise GeometryError(f"mesh file {path}: cannot read as a gmsh mesh ({_one_line(error)})") from None
 
 
-def _gmsh_blocks(msh, path: Path) -> tuple[int, list[tuple[int, np.ndarray, list[str]]]]:
-    """The mesh dimension and, per cell block of dimension dim or dim - 1, (dimension, corner
-    numbers, physical name of each cell)."""
+def _gmsh_blocks(msh, path: Path) -> tuple[int, list[tuple[int, np.ndarray, list[str]]], list[np.ndarray]]:
+    """The mesh dimension; per cell block of dimension dim or dim - 1, (dimension, corner numbers,
+    physical name of each cell); and the mid-edge nodes of the second-order blocks as rows
+    (corner, corner, node)."""
     unknown = sorted({block.type for block in msh.cells} - set(GMSH_CELLS) - IGNORED_CELLS)
     if unknown:
         raise GeometryError(f"mesh file {path}: cells of type {', '.join(unknown)} are not supported "
@@ -421,19 +436,21 @@ def _gmsh_blocks(msh, path: Path) -> tuple[int, list[tuple[int, np.ndarray, list
     if not msh.field_data or tags is None:
         raise GeometryError(f"mesh file {path}: no physical names; {NAMES_HINT}")
     names = {(int(dim), int(tag)): name for name, (tag, dim) in msh.field_data.items()}
-    blocks = [(GMSH_CELLS[b.type], b.data, t) for b, t in zip(msh.cells, tags) if b.type in GMSH_CELLS]
-    dim = max((d for (d, _), _, _ in blocks), default=0)
+    blocks = [(b.type, b.data, t) for b, t in zip(msh.cells, tags) if b.type in GMSH_CELLS]
+    dim = max((GMSH_CELLS[kind][0] for kind, _, _ in blocks), default=0)
     if dim not in (2, 3):
         raise GeometryError(f"mesh file {path}: no triangles or tetrahedra")
-    result = []
-    for (d, corners), data, block_tags in blocks:
+    result, middles = [], []
+    for kind, data, block_tags in blocks:
+        d, corners = GMSH_CELLS[kind]
         if d < dim - 1:
             continue
         missing = sorted({int(t) for t in block_tags if (d, int(t)) not in names})
         if missing:
             raise GeometryError(f"mesh file {path}: physical group {missing[0]} of dimension {d} has no name; {NAMES_HINT}")
         result.append((d, data[:, :corners], [names[d, int(t)] for t in block_tags]))
-    return dim, result
+        middles += [data[:, [i, j, corners + k]] for k, (i, j) in enumerate(MID_EDGES.get(kind, []))]
+    return dim, result, middles
 
 
 def _coincident_vertices(points: np.ndarray, path: Path) -> None:
@@ -502,7 +519,7 @@ def _unnamed_facets(path: Path, neighbours: dict, named: set, regions: list[int]
 def _load_gmsh(path: Path) -> ngs.Mesh:
     """A gmsh mesh read by meshio, as a geometry-free netgen mesh (see `load_mesh`)."""
     msh = _read_gmsh(path)
-    dim, blocks = _gmsh_blocks(msh, path)
+    dim, blocks, middles = _gmsh_blocks(msh, path)
     cells = [(name, c) for d, data, names in blocks if d == dim for name, c in zip(names, data)]
     facets = [(name, c) for d, data, names in blocks if d < dim for name, c in zip(names, data)]
     materials = list(dict.fromkeys(name for name, _ in cells))
@@ -511,7 +528,7 @@ def _load_gmsh(path: Path) -> ngs.Mesh:
         raise GeometryError(f"mesh file {path}: volume region '{strange[0]}' is neither '{FLUID}' nor '{SOLID}'")
     used = np.unique(np.concatenate([c for _, c in cells]))
     number = np.full(len(msh.points), -1)
-    number[used] = np.arange(len(used))  # mid-edge nodes of second-order cells are dropped
+    number[used] = np.arange(len(used))  # the corners; mid-edge nodes are not vertices
     points = np.zeros((len(used), 3))
     points[:, : msh.points.shape[1]] = msh.points[used]
     if dim == 2 and np.abs(points[:, 2]).max() > 0:
@@ -521,7 +538,28 @@ def _load_gmsh(path: Path) -> ngs.Mesh:
     regions = [materials.index(name) + 1 for name, _ in cells]
     boundaries, oriented = _gmsh_boundaries(path, points, corners, materials, regions,
                                             [(name, number[c].tolist()) for name, c in facets])
-    return netgen_mesh(dim, points, materials, list(zip(regions, corners)), boundaries, oriented)
+    mesh = netgen_mesh(dim, points, materials, list(zip(regions, corners)), boundaries, oriented)
+    if middles:
+        _mid_edge_nodes(path, mesh, points, msh.points, number, np.vstack(middles))
+    return mesh
+
+
+def _mid_edge_nodes(path: Path, mesh: ngs.Mesh, points: np.ndarray, nodes: np.ndarray, number: np.ndarray,
+                    middles: np.ndarray) -> None:
+    """Curve ``mesh`` by the mid-edge nodes of its second-order cells (rows: corner, corner, node of the
+    file), unless every one is its edge's midpoint; refuse an edge whose cells disagree on its node."""
+    edges = np.sort(number[middles[:, :2]], axis=1)
+    where = np.zeros((len(middles), 3))
+    where[:, : nodes.shape[1]] = nodes[middles[:, 2]]
+    size = float(np.ptp(points, axis=0).max()) or 1.0
+    if np.abs(where - (points[edges[:, 0]] + points[edges[:, 1]]) / 2).max() <= 1e-12 * size:
+        return
+    unique, first, inverse = np.unique(edges, axis=0, return_index=True, return_inverse=True)
+    apart = np.linalg.norm(where - where[first][inverse.ravel()], axis=1)
+    if apart.max() > 1e-10 * size:
+        at = tuple(round(float(c), 6) for c in points[edges[apart.argmax()]].mean(axis=0))
+        raise GeometryError(f"mesh file {path}: the cells along the edge at {at} have different mid-edge nodes")
+    quadratic.attach(mesh, {(int(a), int(b)): where[k] for (a, b), k in zip(unique, first)}, str(path))
 
 
 def load_mesh(path: str | Path) -> ngs.Mesh:

@@ -115,12 +115,15 @@ def shared(build: Callable[..., T], *args) -> T:
 
 def distribute(mesh):
     """Rank 0's ``ngsolve.Mesh`` split over the ranks: every rank gets its part (rank 0 passes its mesh,
-    the others None). Serial: the mesh itself."""
+    the others None); a mesh that cannot be distributed is refused on every rank. Serial: the mesh itself."""
     comm = world()
     if comm is None:
         return mesh
     import netgen.meshing
     import ngsolve as ngs
+
+    from .geometry import check_distributable
+    shared(check_distributable, mesh)
     ngmesh = mesh.ngmesh.Distribute(comm) if comm.rank == 0 else netgen.meshing.Mesh.Receive(comm)
     return ngs.Mesh(ngmesh)
 

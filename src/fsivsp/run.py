@@ -27,6 +27,7 @@ from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_ge
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
+from .quadratic import curve
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
@@ -170,7 +171,7 @@ def build_scheme(case: RunCase):
     velocity, traction = boundary_conditions(case)
     disc = case.discretisation
     if disc.curved:
-        case.mesh.Curve(base_order(disc.family, disc.order))
+        curve(case.mesh, base_order(disc.family, disc.order))
     spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)

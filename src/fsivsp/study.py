@@ -16,6 +16,7 @@ from .manufactured import ExactSolution
 from .materials import Materials
 from .forms import elastic_stress
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_motions
+from .quadratic import curve
 from .scheme import INITIAL_STRESS, Scheme, Data
 from .solvers import MAX_ITERATIONS, TOLERANCE
 from .spaces import Spaces, base_order, build_spaces
@@ -114,7 +115,7 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
     check_regions(mesh)
     if case.curved:
-        mesh.Curve(base_order(case.family, case.order))
+        curve(mesh, base_order(case.family, case.order))
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
