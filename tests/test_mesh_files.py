@@ -3,6 +3,7 @@ round trips, studies equal to netgen's own format, the STEP example, and one-lin
 import importlib.util
 import json
 import math
+import shutil
 from functools import lru_cache
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from fsivsp.quadratic import curve, quadratic_cells
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 STEP = EXAMPLES / "cylinder_in_box.step"
+DATA = Path(__file__).parent / "data"
 FORMATS = {"41-ascii": ("gmsh", False), "41-binary": ("gmsh", True), "22-ascii": ("gmsh22", False)}
 STUDIES = {2: ("fluid_over_solid_2d.toml", 'kind = "fluid_over_solid"\ndim = 2\nmaxh = 0.15'),
            3: ("fluid_in_solid_3d.toml", 'kind = "fluid_in_solid"\ndim = 3\nmaxh = 0.4\ncurvature_safety = 1.0')}
@@ -283,6 +285,19 @@ def test_study_on_step_equals_netgen_format(tmp_path):
     assert cad[0] == pytest.approx(own[0], rel=1e-10, abs=1e-14)
 
 
+@pytest.mark.parametrize("suffix", [".iges", ".igs"])
+def test_study_on_iges_equals_step(tmp_path, suffix):
+    """`fsivsp study` on an IGES file of solids (BRep mode; made with OCP, which the venv lacks, so it is checked
+    in), its solids mapped by number, gives the errors of the same boxes written as STEP by netgen.occ."""
+    iges = tmp_path / f"boxes{suffix}"
+    shutil.copy(DATA / "two_boxes_solids.iges", iges)
+    step = two_boxes(tmp_path / "boxes.step")
+    regions = '\nregions = { "1" = "fluid", "2" = "solid" }'
+    cad = study_errors(tmp_path, 3, f'kind = "cad"\ndim = 3\nmaxh = 0.4\npath = "{iges}"{regions}', "iges")
+    own = study_errors(tmp_path, 3, f'kind = "cad"\ndim = 3\nmaxh = 0.4\npath = "{step}"', "step")
+    assert cad[0] == pytest.approx(own[0], rel=1e-10, abs=1e-14)
+
+
 # --------------------------------------------------------------------------------------------
 # CAD files
 # --------------------------------------------------------------------------------------------
@@ -494,6 +509,8 @@ CAD_FAULTS = {
     "not-a-table": (two_boxes, 'regions = ["1"]', "error: geometry.regions: expected a table"),
     "dim": (two_boxes, "", "error: CAD file {path}: has solids: use dim = 3"),
     "extension": (lambda p: p.with_suffix(".stl"), "", "error: CAD file {path}: unknown extension '.stl'"),
+    "iges-faces": (lambda p: Path(shutil.copy(DATA / "two_boxes_faces.iges", p.with_suffix(".iges"))), "",
+                   "error: CAD file {path}: no solids, only 12 faces (IGES in face mode?): export the solids"),
 }
 
 

@@ -27,6 +27,7 @@ import io
 import math
 import os
 import sys
+import tempfile
 from numbers import Real
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -615,19 +616,26 @@ def _silenced():
 def _read_cad(path: str | Path, dim: int) -> tuple[Path, list]:
     """The parts of a STEP, BREP or IGES file (netgen's OCC kernel): its solids (3D) or its faces
     in the plane z = 0 (2D)."""
-    path, _ = _existing_file(path, CAD_SUFFIXES, "CAD file")
+    path, suffix = _existing_file(path, CAD_SUFFIXES, "CAD file")
     try:
-        with _silenced():
-            shape = OCCGeometry(str(path)).shape
+        with _silenced(), tempfile.TemporaryDirectory() as folder:
+            readable = path
+            if suffix == ".igs":  # netgen's OCCGeometry knows the long suffix only
+                readable = Path(folder) / "part.iges"
+                readable.symlink_to(path.resolve())
+            shape = OCCGeometry(str(readable)).shape
     except Exception as error:  # noqa: BLE001 - OCC raises bare Exceptions
         raise GeometryError(f"CAD file {path}: cannot read ({_one_line(error)})") from None
     solids, faces = list(shape.solids), list(shape.faces)
+    low, high = shape.bounding_box
+    plane = max(abs(low[2]), abs(high[2])) <= 1e-6 * max(high[i] - low[i] for i in range(2))
     if dim == 3 and not solids:
-        raise GeometryError(f"CAD file {path}: no solids" + (" (plane faces: use dim = 2)" if faces else ""))
+        raise GeometryError(f"CAD file {path}: no solids" + (
+            "" if not faces else " (plane faces: use dim = 2)" if plane else
+            f", only {len(faces)} faces (IGES in face mode?): export the solids (STEP, BREP, or IGES in BRep mode)"))
     if dim == 2 and (solids or not faces):
         raise GeometryError(f"CAD file {path}: " + ("has solids: use dim = 3" if solids else "no faces"))
-    low, high = shape.bounding_box
-    if dim == 2 and max(abs(low[2]), abs(high[2])) > 1e-6 * max(high[i] - low[i] for i in range(2)):
+    if dim == 2 and not plane:
         raise GeometryError(f"CAD file {path}: a 2D geometry must lie in the plane z = 0")
     return path, solids if dim == 3 else faces
 
