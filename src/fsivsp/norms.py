@@ -21,7 +21,8 @@ import scipy.sparse as sp
 import sympy
 
 from .forms import DATA_BONUS, region_integral
-from .solvers import compact, to_ngsolve, to_scipy_csr
+from .projection import gram_solver
+from .solvers import compact
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
 # A norm is a sum of parts ∫_region op(u)·op(u): (region or None for Ω, op on discrete functions, op on exact fields).
@@ -76,11 +77,6 @@ def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], 
         for region, op, _ in parts:
             gram += _integral(ngs.InnerProduct(op(u), op(w)), region, bonus)
     return compact(gram.Assemble().mat)
-
-
-#: The shift of a singular Gram matrix's diagonal for the projections (`ErrorNorm` with a ``kernel``),
-#: relative to the diagonal; refinement steps then remove its effect on the projections.
-SINGULAR_SHIFT, REFINEMENT_STEPS = 1e-10, 3
 
 
 def connected_parts(mesh: ngs.Mesh, region: str) -> np.ndarray:
@@ -139,7 +135,7 @@ class ErrorNorm:
                  offset: ngs.CoefficientFunction | None = None, kernel: list[ngs.BaseVector] | None = None):
         """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`;
         ``kernel``: a basis of the kernel of the Gram matrix on the dofs it sees (Cε: `rigid_motions`). The
-        projections are then solved with `SINGULAR_SHIFT` and refined, and Σ T_k π_k − u_h is cleared of its
+        projections are then solved for the singular G (`projection.gram_solver`), and Σ T_k π_k − u_h is cleared of its
         kernel part before the product with G, which would otherwise leave a floor of about 1e-9 ‖E‖ (the
         rounding of G times an O(1) rigid motion, squared and rooted)."""
         if offset is not None and len(parts) != 1:
@@ -161,12 +157,12 @@ class ErrorNorm:
         if offset is not None:
             self._terms.append((lambda t: 1.0, [-offset]))
         used = self._used_dofs()
-        dofs = np.flatnonzero([used[i] for i in range(len(used))])
+        dofs = np.flatnonzero(used)
         contiguous = len(dofs) and dofs[-1] - dofs[0] + 1 == len(dofs)
         self.dofs = slice(int(dofs[0]), int(dofs[-1]) + 1) if contiguous else dofs  # a view where possible
-        project = self._projector(used, kernel is not None)
         self._kernel = None if kernel is None else np.linalg.qr(
             np.column_stack([k.FV().NumPy()[self.dofs] for k in kernel]))[0]
+        project = gram_solver(self._gram, space, used, None if kernel is None else (self._kernel, self.dofs))
         self._projections = []
         for _, cfs in self._terms:
             load = ngs.LinearForm(space)
@@ -184,24 +180,6 @@ class ErrorNorm:
                     self._integrate(ra * rb if ra.dim == 1 else ngs.InnerProduct(ra, rb), region)
                     for (ra, region), (rb, _) in zip(remainders[a], remainders[b]))
 
-    def _projector(self, used: ngs.BitArray, singular: bool) -> Callable:
-        """load, out ↦ out = G⁺ load on the used dofs: a Cholesky factorisation of G, or, if ``singular``, of
-        G + `SINGULAR_SHIFT` diag(G) followed by `REFINEMENT_STEPS` of iterative refinement with G."""
-        gram = self._gram
-        if singular:
-            csr = to_scipy_csr(gram)
-            gram = to_ngsolve(csr + SINGULAR_SHIFT * sp.diags(csr.diagonal()))
-        inverse = gram.Inverse(used, inverse="sparsecholesky")
-
-        def project(load: ngs.BaseVector, out: ngs.BaseVector) -> None:
-            out.data = inverse * load
-            residual = load.CreateVector()
-            for _ in range(REFINEMENT_STEPS if singular else 0):
-                residual.data = load - self._gram * out
-                out.data += inverse * residual
-
-        return project
-
     def _offset(self, cfs: list) -> list:
         return cfs if self.offset is None else [cfs[0] - self.offset]
 
@@ -209,13 +187,11 @@ class ErrorNorm:
         mesh = self.space.mesh
         return ngs.Integrate(cf, mesh, definedon=mesh.Materials(region) if region else None, order=self.intorder)
 
-    def _used_dofs(self) -> ngs.BitArray:
-        """The dofs the norm sees (nonzero diagonal of G)."""
+    def _used_dofs(self) -> np.ndarray:
+        """The dofs the norm sees (nonzero diagonal of G), as a mask."""
         rows, cols, vals = (np.asarray(a) for a in self._gram.COO())
-        used = ngs.BitArray(self.space.ndof)
-        used.Clear()
-        for r in rows[(rows == cols) & (vals > 0)]:
-            used.Set(int(r))
+        used = np.zeros(self.space.ndof, dtype=bool)
+        used[rows[(rows == cols) & (vals > 0)]] = True
         return used
 
     def _exact_cfs(self, expr, t):
