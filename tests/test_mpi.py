@@ -118,10 +118,9 @@ def test_errors_equal_serial(tmp_path, command):
 @pytest.mark.parametrize("old, new, args, message", [
     ("[boundary.solid_ends]", "[boundary.nowhere]", [],  # found while meshing, on rank 0 only
      "error: boundary.nowhere: no boundary of that name"),
-    ("", "", ["--resume"], "error: --resume: no checkpoints are written under mpirun yet"),
     ('family = "mini"', 'family = "mini"\nsolver = "direct"', [],
      "error: discretisation.solver: 'direct' does not run under mpirun"),
-], ids=["boundary", "resume", "direct-solver"])
+], ids=["boundary", "direct-solver"])
 def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     """Exit 2 (mpirun's code: every rank's), the error printed once, no rank left running (the timeout)."""
     case = tmp_path / "case.toml"
@@ -131,6 +130,32 @@ def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(ours) == 1 and ours[0].startswith(message), done.stderr
     assert "Traceback" not in done.stderr
+
+
+@needs_mpi
+def test_resume_equals_uninterrupted(tmp_path):
+    """2 ranks: a run stopped after step 3 (checkpoint at step 2) and resumed to step 5 ends as the uninterrupted
+    run (to round-off: MinRes in a new process); resuming it on 3 ranks or serially is refused in one line."""
+    text = TUBE.format(family="mini") + "\n[checkpoint]\nevery = 2\n"
+    whole, stopped = tmp_path / "whole.toml", tmp_path / "stopped.toml"
+    whole.write_text(text)
+    stopped.write_text(text.replace("T = 2.5e-4", "T = 1.5e-4"))
+    for case, out in ((whole, "whole"), (stopped, "resumed")):
+        done = mpirun("run", str(case), "--out", str(tmp_path / out), "--quiet")
+        assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "resumed" / "checkpoints").iterdir()) == ["checkpoint_000002.npz"]
+    for ranks, how in ((3, "mpirun -np 2"), (1, "mpirun -np 2")):
+        done = mpirun("run", str(whole), "--out", str(tmp_path / "resumed"), "--resume", "--quiet", ranks=ranks)
+        assert done.returncode == 2, done.stderr
+        ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+        assert len(ours) == 1 and f"written by 2 ranks, this run has {ranks}; resume with {how}" in ours[0], done.stderr
+    done = mpirun("run", str(whole), "--out", str(tmp_path / "resumed"), "--resume", "--quiet")
+    assert done.returncode == 0, done.stderr
+    expected, got = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "resumed"))
+    assert got["resumed_from"] == 2 and got["step"] == expected["step"] == 5
+    for name, value in expected["l2_norms"].items():
+        assert got["l2_norms"][name] == pytest.approx(value, rel=1e-12), name
+    assert got["energy"]["energy"] == pytest.approx(expected["energy"]["energy"], rel=1e-12)
 
 
 @needs_mpi

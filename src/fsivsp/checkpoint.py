@@ -7,6 +7,10 @@ fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, th
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
 uninterrupted one bit for bit.
 
+Under mpirun rank 0 gathers every rank's local vectors (cumulated) and fingerprint into the one file
+(``state.rank1``, …; the fingerprint lists the ranks), and scatters them back on loading; a checkpoint
+resumes only with the number of ranks that wrote it (the mesh's partition is part of the vectors' meaning).
+
     save_checkpoint(checkpoint_path(out, scheme.n), scheme, {"probes": probes.state()})
     ...
     path = latest_checkpoint(out)
@@ -24,6 +28,8 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
+
+from . import parallel
 
 FORMAT = 3  # 2: the displacement instead of the stress (lean operators); 3: time schemes
 PREFIX = "checkpoint"
@@ -70,23 +76,45 @@ def fingerprint(scheme) -> dict:
 
 
 def _vectors(scheme) -> dict[str, np.ndarray]:
-    return {name: vector.FV().NumPy() for name, vector in scheme.history().items()}
+    """The scheme's history vectors (this rank's part, cumulated under MPI) as views."""
+    vectors = scheme.history()
+    for vector in vectors.values():
+        if hasattr(vector, "Cumulate") and parallel.distributed():
+            vector.Cumulate()
+    return {name: vector.FV().NumPy() for name, vector in vectors.items()}
+
+
+def _key(name: str, rank: int, ranks: int) -> str:
+    return name if ranks == 1 else f"{name}.rank{rank}"
+
+
+def _combined(prints: list[dict]) -> dict:
+    """The fingerprint of a run on ``len(prints)`` ranks (one rank: its own)."""
+    return prints[0] if len(prints) == 1 else {"ranks": len(prints), "parts": prints}
 
 
 def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path:
-    """Store the scheme's step, time and vectors with ``extra`` (JSON-serialisable).
+    """Store the scheme's step, time and vectors with ``extra`` (JSON-serialisable; rank 0's under MPI).
 
     The file is written to a temporary file in the same directory, synced, and renamed
     over ``path``: an existing checkpoint is replaced only by a complete one.
     """
     path = Path(path)
     extra_json = json.dumps(extra or {})  # fails (TypeError) before anything is written
-    arrays = {name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()}
+    parts = parallel.gather_on_root(({name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()},
+                                     fingerprint(scheme)))
+    parallel.shared(_write, path, parts, scheme.n, scheme.time, extra_json)
+    return path
+
+
+def _write(path: Path, parts: list[tuple[dict, dict]], step: int, time: float, extra_json: str) -> None:
+    arrays = {_key(name, rank, len(parts)): values for rank, (vectors, _) in enumerate(parts)
+              for name, values in vectors.items()}
     arrays.update(
         format=np.array(FORMAT, dtype=np.int64),
-        step=np.array(int(scheme.n), dtype=np.int64),
-        time=np.array(float(scheme.time), dtype=np.float64),
-        fingerprint=np.array(json.dumps(fingerprint(scheme), sort_keys=True)),
+        step=np.array(int(step), dtype=np.int64),
+        time=np.array(float(time), dtype=np.float64),
+        fingerprint=np.array(json.dumps(_combined([prints for _, prints in parts]), sort_keys=True)),
         extra=np.frombuffer(extra_json.encode(), dtype=np.uint8),  # UTF-8 bytes, not 4-byte characters
     )
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -101,7 +129,6 @@ def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path
         Path(tmp).unlink(missing_ok=True)
         raise
     _sync_directory(path.parent)
-    return path
 
 
 def _sync_directory(directory: Path) -> None:
@@ -125,8 +152,9 @@ def _read(path: Path) -> dict:
         raise
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise CheckpointError(f"checkpoint {path}: not a readable checkpoint ({exc})") from None
-    missing = {"format", "step", "time", "state", "displacement", "fingerprint", "extra"} - contents.keys()
-    if missing:
+    missing = {"format", "step", "time", "fingerprint", "extra"} - contents.keys()
+    if missing or not any(name.split(".")[0] == "state" for name in contents):
+        missing |= {"state"}
         raise CheckpointError(f"checkpoint {path}: not a fsivsp checkpoint (missing {', '.join(sorted(missing))})")
     return contents
 
@@ -145,26 +173,44 @@ def _mismatches(saved: dict, current: dict, prefix: str = "") -> list[str]:
 def load_checkpoint(path: str | Path, scheme) -> dict:
     """Restore step, time and vectors into ``scheme`` exactly; return the saved ``extra``.
 
-    Raises `CheckpointError` if the file is unreadable or was written for another
-    discretisation (different mesh, spaces, Δt or materials).
+    Raises `CheckpointError` (on every rank) if the file is unreadable or was written for another
+    discretisation (different mesh, spaces, Δt, materials or number of ranks).
     """
     path = Path(path)
+    targets = _vectors(scheme)
+    current = parallel.gather_on_root((fingerprint(scheme), {name: target.shape for name, target in targets.items()}))
+    loaded = parallel.on_root(_read_matching, path, current)
+    for name, values in parallel.scatter(loaded[0] if loaded else None).items():
+        targets[name][:] = values
+    step, time, extra = parallel.shared(lambda: loaded[1])
+    scheme.time, scheme.n = time, step
+    return extra
+
+
+def _read_matching(path: Path, current: list[tuple[dict, dict]]) -> tuple[list[dict], tuple[int, float, dict]]:
+    """Each rank's vectors of the checkpoint at ``path`` and its (step, time, extra), if it matches the run whose
+    ranks have the (fingerprint, vector shapes) ``current``."""
     contents = _read(path)
     saved = json.loads(str(contents["fingerprint"]))
-    problems = _mismatches(saved, fingerprint(scheme))
+    ranks = saved.get("ranks", 1) if "parts" in saved else 1
+    if ranks != len(current):
+        how = f"with mpirun -np {ranks}" if ranks > 1 else "without mpirun"
+        raise CheckpointError(f"checkpoint {path}: written by {ranks} rank{'s' * (ranks > 1)}, this run has "
+                              f"{len(current)}; resume {how}")
+    problems = _mismatches(saved, _combined([prints for prints, _ in current]))
     if problems:
         raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
-    targets = _vectors(scheme)
-    for name, target in targets.items():
-        values = contents.get(name)
-        if values is None or values.shape != target.shape:
-            shape = None if values is None else values.shape
-            raise CheckpointError(f"checkpoint {path}: {name} has shape {shape}, expected {target.shape}")
-    for name, target in targets.items():
-        target[:] = contents[name]
-    scheme.time = float(contents["time"])
-    scheme.n = int(contents["step"])
-    return json.loads(contents["extra"].tobytes().decode())
+    vectors = []
+    for rank, (_, shapes) in enumerate(current):
+        mine = {}
+        for name, shape in shapes.items():
+            values = contents.get(_key(name, rank, ranks))
+            if values is None or values.shape != shape:
+                raise CheckpointError(f"checkpoint {path}: {_key(name, rank, ranks)} has shape "
+                                      f"{None if values is None else values.shape}, expected {shape}")
+            mine[name] = values
+        vectors.append(mine)
+    return vectors, (int(contents["step"]), float(contents["time"]), json.loads(contents["extra"].tobytes().decode()))
 
 
 def prune_checkpoints(directory: str | Path, keep: int = 2) -> None:

@@ -164,3 +164,15 @@ def gather(value: T) -> list[T]:
     """``value`` of every rank, in rank order, on every rank. Serial: ``[value]``."""
     comm = world()
     return [value] if comm is None else comm.allgather(value)
+
+
+def gather_on_root(value: T) -> list[T] | None:
+    """``value`` of every rank, in rank order, on rank 0; None on the others. Serial: ``[value]``."""
+    comm = world()
+    return [value] if comm is None else comm.gather(value, root=0)
+
+
+def scatter(values: list[T] | None) -> T:
+    """Rank r's item of rank 0's list ``values`` (one item per rank). Serial: the only item."""
+    comm = world()
+    return values[0] if comm is None else comm.scatter(values, root=0)

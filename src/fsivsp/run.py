@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import signal
-import sys
 import time as clock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -218,12 +217,10 @@ def l2_norms(scheme) -> dict[str, float]:
             "stress": math.sqrt(max(ngs.Integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)), 0.0))}
 
 
-def check_distributed(case: RunCase, resume: bool) -> None:
+def check_distributed(case: RunCase) -> None:
     """Under mpirun: what a distributed run does not do yet (docs/mpi.md) raises a one-line CaseError."""
     from .solvers import unsupported
 
-    if resume:
-        raise CaseError("--resume: no checkpoints are written under mpirun yet (docs/mpi.md); run without mpirun")
     if reason := unsupported(case.discretisation.solver, case.discretisation.initial_velocity):
         raise CaseError(f"discretisation.{reason}")
 
@@ -251,23 +248,20 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     from .solvers import NotConverged
     from .spaces import global_count
 
-    distributed = parallel.distributed()
-    if distributed:
-        check_distributed(case, resume)
+    if parallel.distributed():
+        check_distributed(case)
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     checkpoints = out / "checkpoints"
     scheme = build_scheme(case)
     setup = clock.perf_counter() - started
     fields, stress = scheme_fields(scheme)
-    if distributed and not quiet:
-        print("note: under mpirun no checkpoints are written yet (docs/mpi.md)", file=sys.stderr)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
                        refresh=stress) if case.output["vtk"] else None
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
     history = {"time": [], "energy": []}
     resumed_from = None
-    if resume and (latest := latest_checkpoint(checkpoints)) is not None:
+    if resume and (latest := parallel.shared(latest_checkpoint, checkpoints)) is not None:
         extra = load_checkpoint(latest, scheme)
         history = extra["history"]
         probes.restore(extra["probes"])
@@ -340,9 +334,9 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             if series is not None and (scheme.n % every == 0 or scheme.n == case.steps):
                 series.write(scheme.time, scheme.n)
             interrupted = comm.Max(float(interrupt.requested)) > 0
-            if not distributed and (scheme.n % keep == 0 or interrupted):
+            if scheme.n % keep == 0 or interrupted:
                 save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
-                prune_checkpoints(checkpoints, keep=2)
+                parallel.shared(prune_checkpoints, checkpoints, 2)
             bar.update(1)
             bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GiB", refresh=False)
             if interrupted:
