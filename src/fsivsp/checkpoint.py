@@ -101,8 +101,8 @@ def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path
     """
     path = Path(path)
     extra_json = json.dumps(extra or {})  # fails (TypeError) before anything is written
-    parts = parallel.gather_on_root(({name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()},
-                                     fingerprint(scheme)))
+    vectors = {name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()}
+    parts = parallel.gather_on_root((vectors, fingerprint(scheme)))
     parallel.shared(_write, path, parts, scheme.n, scheme.time, extra_json)
     return path
 

@@ -15,7 +15,8 @@ curved boundaries; docs/meshes.md describes the file formats):
 - ``cad``: the solids (2D: the plane faces) of a STEP, BREP or IGES file, named ``fluid`` /
   ``solid`` in the file or by a ``regions`` table, glued and meshed;
 - ``load_mesh``: a gmsh ``.msh`` (format 2.2 or 4.x, ASCII or binary, read by meshio; physical
-  names as region names) or netgen ``.vol`` file, without geometry (unless a ``.vol`` carries it);
+  names as region names; second-order cells curve it, `quadratic`) or netgen ``.vol`` file, without
+  geometry (unless a ``.vol`` carries it);
 - ``netgen_mesh``: a geometry-free netgen mesh from points, cells and named facets (used by
   ``load_mesh`` and ``without_geometry``);
 - ``build_geometry(kind, dim, maxh, **parameters)``: dispatch by name, with validation (``KINDS``).
@@ -35,7 +36,6 @@ from typing import Any, Callable, Sequence
 import ngsolve as ngs
 import netgen.meshing as nm
 import numpy as np
-
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
 from . import quadratic
@@ -573,10 +573,11 @@ def load_mesh(path: str | Path) -> ngs.Mesh:
     cell in the physical group ``fluid`` or ``solid``, every outer facet in a named group (walls:
     ``fluid_wall``, ``solid_wall`` or other names), every fluid–solid facet in ``interface``, and the
     fluid and solid share their interface nodes (no coincident vertices). Second-order cells
-    (triangle6, tetra10) become straight cells on their corners: the mid-edge nodes are dropped.
-    A gmsh mesh has no geometry (refinement splits edges at their midpoints, ``Curve`` changes
-    nothing); a ``.vol`` file saved from a mesh of an OCC geometry (``mesh.ngmesh.Save``) carries
-    that geometry along."""
+    (triangle6, tetra10) are the straight mesh on their corners with their quadratic map attached
+    (`quadratic`: `quadratic.curve` applies it, refinement keeps it); mid-edge nodes that all sit at
+    their edges' midpoints leave it straight. A gmsh mesh has no other geometry (refinement splits
+    edges at their midpoints); a ``.vol`` file saved from a mesh of an OCC geometry
+    (``mesh.ngmesh.Save``) carries that geometry along."""
     path, suffix = _existing_file(path, MESH_SUFFIXES, "mesh file")
     if suffix == ".msh":
         mesh = _load_gmsh(path)
