@@ -135,7 +135,8 @@ def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
 @needs_mpi
 def test_resume_equals_uninterrupted(tmp_path):
     """2 ranks: a run stopped after step 3 (checkpoint at step 2) and resumed to step 5 ends as the uninterrupted
-    run (to round-off: MinRes in a new process); resuming it on 3 ranks or serially is refused in one line."""
+    run, to 1e-10 (two uninterrupted 2-rank runs differ by up to 2.7e-12: the distributed MinRes and BDDC do not
+    round alike from one process to the next); resuming it on 3 ranks or serially is refused in one line."""
     text = TUBE.format(family="mini") + "\n[checkpoint]\nevery = 2\n"
     whole, stopped = tmp_path / "whole.toml", tmp_path / "stopped.toml"
     whole.write_text(text)
@@ -154,8 +155,8 @@ def test_resume_equals_uninterrupted(tmp_path):
     expected, got = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "resumed"))
     assert got["resumed_from"] == 2 and got["step"] == expected["step"] == 5
     for name, value in expected["l2_norms"].items():
-        assert got["l2_norms"][name] == pytest.approx(value, rel=1e-12), name
-    assert got["energy"]["energy"] == pytest.approx(expected["energy"]["energy"], rel=1e-12)
+        assert got["l2_norms"][name] == pytest.approx(value, rel=1e-10), name
+    assert got["energy"]["energy"] == pytest.approx(expected["energy"]["energy"], rel=1e-10)
 
 
 @needs_mpi
