@@ -1,7 +1,8 @@
 """Issue 12's second parameter set: a stiff solid (λ = μ = 100 ν) and a large step (Δt = 0.25) in the 3D solid
 ball, MINI. σ lags its rate on levels 1→2 (0.81) while v and p converge at theirs; docs/verification.md has
-levels 0–4 (σ at 0.95 from level 3 to 4: pre-asymptotic) and the best approximation. This pins the measurement: if σ starts converging at 0.9 or more on
-these levels, or v and p stop converging, the page is stale."""
+levels 0–4 (σ at 0.95 from level 3 to 4: pre-asymptotic) and the best approximation. This pins the
+measurement: if σ starts converging at 0.9 or more on these levels, or v and p stop converging, the page is
+stale."""
 from pathlib import Path
 
 from fsivsp.case import load_study_case, to_study
