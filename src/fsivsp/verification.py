@@ -27,6 +27,7 @@ class Entry:
     slow: bool = False
     first_level: int | None = None  # overrides the rule of `levels`
     curved: bool = False  # curved elements and projected refinement on a curvature_safety = 2 mesh
+    stiff: bool = False  # the second parameter set: examples/stiff_<configuration>_<d>d.toml
 
     @property
     def levels(self) -> range:
@@ -43,7 +44,12 @@ class Entry:
     @property
     def label(self) -> str:
         element = "MINI" if self.family == "mini" else f"TH{self.order}"
-        return f"{element}-{self.dim}d-{self.configuration}" + ("-curved" if self.curved else "")
+        return f"{element}-{self.dim}d-{self.configuration}" + ("-curved" if self.curved else "") \
+            + ("-stiff" if self.stiff else "")
+
+    @property
+    def example(self) -> str:
+        return f"{'stiff_' if self.stiff else ''}{self.configuration}_{self.dim}d.toml"
 
 
 def _entries() -> list[Entry]:
@@ -62,6 +68,9 @@ def _entries() -> list[Entry]:
     # curvature_safety = 1 into overlapping elements (the box volume off by 4e-6), with 2 it does not.
     table += [Entry("taylor_hood", 1, 3, configuration, slow=True, curved=True)
               for configuration in CONFIGURATIONS if configuration != "fluid_over_solid"]
+    # The second parameter set: a solid 100 times stiffer than the fluid's viscous scale (λ = μ = 50, ν = 0.5) and
+    # a large step (Δt = 0.25), with a quadratic divergence-free velocity (docs/verification.md).
+    table += [Entry("mini", 1, 3, configuration, stiff=True) for configuration in CONFIGURATIONS]
     return table
 
 
@@ -149,7 +158,7 @@ def run(entry: Entry, levels: range | None = None, examples: Path = EXAMPLES) ->
     from .case import load_study_case, to_study
     from .study import study
 
-    case_file = load_study_case(examples / f"{entry.configuration}_{entry.dim}d.toml")
+    case_file = load_study_case(examples / entry.example)
     if entry.curved:
         case_file.geometry["curvature_safety"] = CURVED_SAFETY
         case_file.discretisation.curved = True
@@ -163,7 +172,8 @@ def markdown(results: list[tuple[Entry, dict[str, float]]]) -> str:
     rows = []
     for entry, rates in results:
         measured = _unknowns(rates)
-        element = ("MINI" if entry.family == "mini" else f"Taylor–Hood k={entry.order}") + (", curved" if entry.curved else "")
+        element = ("MINI" if entry.family == "mini" else f"Taylor–Hood k={entry.order}") + (", curved" if entry.curved else "") \
+            + (", stiff solid, Δt = 0.25" if entry.stiff else "")
         rows.append([element, entry.dim, entry.configuration, f"{entry.levels.start}–{entry.levels.stop - 1}",
                      f"{entry.expected:.2f}", f"{min(measured):.2f}"] + [f"{r:.2f}" for r in measured])
     return _table(["element", "d", "configuration", "levels", "expected ≥", "min", "v", "p", "σ"], rows)
