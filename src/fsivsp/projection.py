@@ -1,7 +1,7 @@
 """Solves with the Gram matrix G of an error norm: the G-orthogonal projections of the exact fields (`norms`).
 
 Small spaces factorise G (Cholesky). Above `DIRECT_MAX` used dofs the factorisation's fill grows faster than
-the dofs (the 3D MINI velocity on level 5 of the fluid ball: 4.3 million unknowns), and the projections are
+the dofs (on level 4 of the 3D fluid ball it doubled the run's peak memory), and the projections are
 solved by conjugate gradients instead, preconditioned by a symmetric V-cycle of `solvers.multigrid.Multigrid`
 on the used vertex dofs (G's vertex–vertex block is the P1 Gram matrix, so the refinement hierarchy of
 `geometry.refined` serves as for the step) plus Jacobi on the other used dofs (bubbles, edges, faces).
@@ -22,8 +22,10 @@ from ngsolve.krylovspace import CGSolver
 from .solvers import to_ngsolve, to_scipy_csr
 from .solvers.multigrid import COARSE_MAX_DOFS, Multigrid, vertex_levels
 
-#: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy).
-DIRECT_MAX = 200_000
+#: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy). On level 4 of the
+#: 3D fluid ball (MINI, 190 000 dofs in one velocity component's norm) CG took 55 s and 0.35 GB where the Cholesky
+#: factorisation took 84 s and 2.2 GB.
+DIRECT_MAX = 50_000
 #: CG stops when the preconditioned residual is below this fraction of the load's: the norms then equal the
 #: factorised projections' to 1e-9 relative (tests/test_norms.py).
 TOLERANCE = 1e-13
