@@ -19,7 +19,7 @@ import ngsolve as ngs
 import scipy.sparse as sp
 from ngsolve.krylovspace import CGSolver
 
-from .solvers import to_ngsolve, to_scipy_csr
+from .solvers import NotConverged, to_ngsolve, to_scipy_csr
 from .solvers.multigrid import COARSE_MAX_DOFS, Multigrid, vertex_levels
 
 #: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy). On level 4 of the
@@ -117,7 +117,7 @@ def _conjugate_gradients(gram: ngs.BaseMatrix, ndof: int, used: np.ndarray,
         out[:] = 0.0
         solver.Solve(rhs=load, sol=out, initialize=False)
         if solver.residuals[-1] > TOLERANCE * solver.residuals[0]:
-            raise ValueError(f"projection: CG did not reach {TOLERANCE:g} in {MAX_ITERATIONS} iterations")
+            raise NotConverged(f"error norms: CG did not reach {TOLERANCE:g} in {MAX_ITERATIONS} iterations")
         solve.iterations.append(solver.iterations)  # type: ignore[attr-defined]
 
     solve.iterations = []  # type: ignore[attr-defined]
