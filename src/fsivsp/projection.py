@@ -74,7 +74,15 @@ def _cholesky(gram: ngs.BaseMatrix, used: np.ndarray, singular: bool) -> Solve:
 def vertex_dofs(space: ngs.FESpace) -> np.ndarray:
     """The dof of each (scalar unknown, vertex) pair of a product of H1-type spaces (velocity components, then
     pressure): an array of shape (unknowns, vertices), −1 where an unknown has no dof at a vertex (the fluid
-    pressure in the solid)."""
+    pressure in the solid). Kept on the space (a study's norms share it)."""
+    cached = getattr(space, "_vertex_dofs", None)
+    if cached is None:
+        cached = space._vertex_dofs = _vertex_dofs(space)
+        cached.flags.writeable = False
+    return cached
+
+
+def _vertex_dofs(space: ngs.FESpace) -> np.ndarray:
     rows, offset = [], 0
     for part in _scalar_spaces(space):
         row = np.array([(part.GetDofNrs(ngs.NodeId(ngs.VERTEX, v)) or (-1,))[0] for v in range(space.mesh.nv)])

@@ -23,7 +23,17 @@ COARSE_MAX_DOFS = 60_000
 
 def vertex_levels(mesh: ngs.Mesh) -> tuple[np.ndarray, list[int]]:
     """The parents of every vertex (−1 for none) and the vertex counts of the refinement levels, coarsest
-    first: level l's new vertices follow level l − 1's and have both parents among them."""
+    first: level l's new vertices follow level l − 1's and have both parents among them. Kept on the mesh (the
+    step's preconditioner and every error norm ask for it; fsivsp never refines a mesh in place)."""
+    cached = getattr(mesh, "_vertex_levels", None)
+    if cached is None:
+        cached = _vertex_levels(mesh)
+        cached[0].flags.writeable = False
+        mesh._vertex_levels = cached
+    return cached
+
+
+def _vertex_levels(mesh: ngs.Mesh) -> tuple[np.ndarray, list[int]]:
     parents = np.array([mesh.GetParentVertices(v) for v in range(mesh.nv)], dtype=np.int64).reshape(-1, 2)
     youngest = parents.max(axis=1)  # a vertex of level l has a parent of level l − 1 (every old edge is split)
     counts = [int(np.argmax(youngest >= 0)) if (youngest >= 0).any() else mesh.nv]
