@@ -53,6 +53,11 @@ class DistributedPreconditioner:
         self._keep = (product, blocks, bddc, mass)
         self.mat = bddc.mat + 2 * mat.nu / dt * jacobi(mass.mat, spaces)
 
+    @staticmethod
+    def describe() -> dict:
+        """Which approximations the two blocks take (for the run's record)."""
+        return {"velocity": "BDDC", "pressure": "Cahouet-Chabard (BDDC and Jacobi)"}
+
 
 def jacobi(matrix: ngs.BaseMatrix, spaces: Spaces) -> ngs.BaseMatrix:
     """The inverse diagonal of a distributed matrix on X_h's free pressure dofs (zero elsewhere): the local
