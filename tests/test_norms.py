@@ -14,9 +14,11 @@ from fsivsp.study import run_level
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
 
-@pytest.mark.parametrize("example, level, most", [("fluid_in_solid_3d.toml", 1, 40), ("solid_in_fluid_2d.toml", 2, 150)],
+@pytest.mark.parametrize("example, level, most", [("fluid_in_solid_3d.toml", 1, 25), ("solid_in_fluid_2d.toml", 2, 40)],
                          ids=["mini-3d", "taylor-hood-2d"])
 def test_conjugate_gradients_equal_cholesky(monkeypatch, example, level, most):
+    """At most ``most`` CG iterations a projection (measured: 16 and 24; Gauss–Seidel without the V-cycle of the
+    vertex block: 56 and 66)."""
     case = to_study(load_study_case(EXAMPLES / example))
     case = dataclasses.replace(case, T=case.dt)
     mesh = refined(case.coarse_mesh(), level, case.project_refinement)

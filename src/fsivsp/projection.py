@@ -2,9 +2,10 @@
 
 Small spaces factorise G (Cholesky). Above `DIRECT_MAX` used dofs the factorisation's fill grows faster than
 the dofs (on level 4 of the 3D fluid ball it doubled the run's peak memory), and the projections are
-solved by conjugate gradients instead, preconditioned by a symmetric V-cycle of `solvers.multigrid.Multigrid`
+solved by conjugate gradients instead, preconditioned by `solvers.multigrid.TwoLevel` as the step's velocity:
+symmetric Gauss–Seidel on all used dofs (bubbles, edges, faces) around a V-cycle of `solvers.multigrid.Multigrid`
 on the used vertex dofs (G's vertex–vertex block is the P1 Gram matrix, so the refinement hierarchy of
-`geometry.refined` serves as for the step) plus Jacobi on the other used dofs (bubbles, edges, faces).
+`geometry.refined` serves as for the step).
 
 A singular G (the stress norm ‖Cε(u)‖ on the solid, whose kernel is the rigid motions) is consistent for
 every load ∫ Cε(E):Cε(w); its preconditioner factorises the coarsest level with `PRECONDITIONER_SHIFT` and
@@ -20,7 +21,7 @@ import scipy.sparse as sp
 from ngsolve.krylovspace import CGSolver
 
 from .solvers import NotConverged, to_ngsolve, to_scipy_csr
-from .solvers.multigrid import COARSE_MAX_DOFS, Multigrid, vertex_levels
+from .solvers.multigrid import COARSE_MAX_DOFS, Multigrid, TwoLevel, vertex_gather, vertex_levels
 
 #: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy). On level 4 of the
 #: 3D fluid ball (MINI, 190 000 dofs in one velocity component's norm) CG took 55 s and 0.35 GB where the Cholesky
@@ -100,8 +101,8 @@ def _scalar_spaces(space: ngs.FESpace) -> list[ngs.FESpace]:
 def _conjugate_gradients(gram: ngs.BaseMatrix, ndof: int, used: np.ndarray,
                          kernel: tuple[np.ndarray, slice | np.ndarray] | None, vertices: np.ndarray,
                          levels: tuple[np.ndarray, list[int]]) -> Solve:
-    """CG with `Multigrid` on the used ``vertices`` (unknowns × vertices, component-major) plus Jacobi on the
-    other used dofs; the kernel, if any, cleared from the preconditioner's output."""
+    """CG with `TwoLevel` (Gauss–Seidel on the used dofs, `Multigrid` on the used ``vertices``: unknowns ×
+    vertices, component-major); the kernel, if any, cleared from the preconditioner's output."""
     csr = to_scipy_csr(gram)
     index = np.where(vertices >= 0, vertices, 0).ravel()
     free = (vertices >= 0).ravel() & used[index]
@@ -109,13 +110,7 @@ def _conjugate_gradients(gram: ngs.BaseMatrix, ndof: int, used: np.ndarray,
     if kernel is not None:
         block = block + PRECONDITIONER_SHIFT * sp.diags(block.diagonal())
     cycle = Multigrid(to_ngsolve(block), ngs.BitArray(free.tolist()), *levels)
-    gather = ngs.la.SparseMatrixd.CreateFromCOO(np.flatnonzero(free), index[free], np.ones(int(free.sum())),
-                                                len(index), ndof)
-    rest = used.copy()
-    rest[index[free]] = False
-    diagonal = np.where(rest, csr.diagonal(), 1.0)
-    jacobi = to_ngsolve(sp.diags(np.where(rest, 1.0 / diagonal, 0.0)))
-    preconditioner = gather.T @ cycle @ gather + jacobi
+    preconditioner = TwoLevel(gram, ngs.BitArray(used.tolist()), vertex_gather(vertices, used), cycle)
     if kernel is not None:
         clear = _KernelClearing(*kernel, ndof)
         preconditioner = clear @ preconditioner @ clear
@@ -129,7 +124,7 @@ def _conjugate_gradients(gram: ngs.BaseMatrix, ndof: int, used: np.ndarray,
         solve.iterations.append(solver.iterations)  # type: ignore[attr-defined]
 
     solve.iterations = []  # type: ignore[attr-defined]
-    solve.operators = (cycle, gather, jacobi, preconditioner)  # type: ignore[attr-defined]
+    solve.operators = (cycle, preconditioner)  # type: ignore[attr-defined]
     return solve
 
 

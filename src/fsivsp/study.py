@@ -145,6 +145,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
     loop = clock.perf_counter() - start
     errors = {name: math.sqrt(value) for name, value in squares.items()}
     errors["total"] = math.sqrt(sum(squares.values()))
+    solver = scheme.solver.statistics()
     return {
         "level": level,
         "vertices": counts["vertices"],
@@ -155,7 +156,8 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
         "errors": errors,
         "solver": scheme.solver.method,
         "residual": scheme.solver.residual,
-        "iterations": scheme.solver.statistics().get("iterations"),
+        "iterations": solver.get("iterations"),
+        "preconditioner": solver.get("preconditioner"),
         "seconds": {
             "assembly": setup - scheme.solver.factor_seconds,
             "factorisation": scheme.solver.factor_seconds,

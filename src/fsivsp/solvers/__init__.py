@@ -7,9 +7,8 @@
   taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
 
 `step_solver` picks one by name: ``"auto"`` (the default) takes the direct solver below
-`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above, for MINI and Taylor–Hood
-k = 1 (`AUTO_ITERATIVE_ORDERS`); ``"direct"`` the fastest safe direct method; ``"iterative"``; or a direct
-method by name (`METHODS`).
+`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above; ``"direct"`` the fastest
+safe direct method; ``"iterative"``; or a direct method by name (`METHODS`).
 """
 from __future__ import annotations
 
@@ -31,14 +30,10 @@ __all__ = [
 ]
 
 #: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension). Memory decides, not
-#: time: on 535 830 unknowns of the 3D ball the factorisation took 13.4 GiB against 1.86 GiB for the whole
-#: iterative run, though its steps are 28x faster (BENCHMARKS.md, "Scale"); in 2D the fill stays small.
+#: time: on 535 830 unknowns of the 3D ball (MINI) the factorisation took 13.4 GiB against 1.86 GiB for the
+#: whole iterative run, and on 151 059 of the 3D solid ball with Taylor–Hood k = 2 5.0 GiB against 1.3 GiB,
+#: though its steps are faster (BENCHMARKS.md, "Scale"); in 2D the fill stays small.
 AUTO_ITERATIVE_DOFS = {2: 1_000_000, 3: 150_000}
-
-#: The Taylor–Hood orders ``"auto"`` gives to the iterative solver: its preconditioner treats the velocity's
-#: dofs above P1 by their diagonal alone, and for k = 2 (P3 velocity) MinRes stalled at a relative residual of
-#: 3e-7 after 2000 iterations on level 2 of the 3D solid ball (163 000 unknowns), where the direct solver runs.
-AUTO_ITERATIVE_ORDERS = (1,)
 
 
 class StepSolver(Protocol):
@@ -72,8 +67,7 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     if isinstance(matrix, ngs.la.ParallelMatrix):  # a distributed mesh (mpirun)
         return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
     if name == "auto":
-        large = spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim]
-        name = "iterative" if large and (spaces.family == "mini" or spaces.order in AUTO_ITERATIVE_ORDERS) else "direct"
+        name = "iterative" if spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim] else "direct"
     if name == "iterative":
         return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
     return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name == "direct" else name)

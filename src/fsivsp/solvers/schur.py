@@ -138,14 +138,15 @@ class LeastSquaresCommutator:
 
 
 def vertex_patches(space: ngs.FESpace, used: np.ndarray) -> list[list[int]]:
-    """For each vertex, the ``used`` dofs of ``space`` on it and on its edges and faces (a vertex patch)."""
+    """For each vertex, the ``used`` dofs of ``space`` on it and on the edges, faces and cells around it (a
+    vertex patch; every dof of a node of the mesh lies in one)."""
     mesh = space.mesh
     patches = []
     for vertex in mesh.vertices:
-        dofs = set(space.GetDofNrs(vertex))
-        for node in (*vertex.edges, *(vertex.faces if mesh.dim == 3 else ())):
-            dofs.update(space.GetDofNrs(node))
-        patch = sorted(dof for dof in dofs if dof >= 0 and used[dof])
+        nodes = [vertex, *vertex.edges, *vertex.faces]
+        if mesh.dim == 3:
+            nodes += [ngs.NodeId(ngs.CELL, element.nr) for element in vertex.elements]
+        patch = sorted({dof for node in nodes for dof in space.GetDofNrs(node) if dof >= 0 and used[dof]})
         if patch:
             patches.append(patch)
     return patches
