@@ -89,6 +89,46 @@ class _Operator(ngs.BaseMatrix):
         return self.shape_of.CreateRowVector()
 
 
+class GaussSeidel:
+    """Point Gauss–Seidel sweeps on the ``free`` dofs (a mask) of a sparse matrix, forward and backward, for
+    iterates that are zero off those dofs (as in every cycle here). NGSolve's backward sweep (``SmoothBack``) runs
+    about 3x slower than its forward one (19.4 against 6.0 ms on the velocity block of the 3D fluid ball's level
+    3), so the backward sweep is a forward one on a copy of the free block in reversed numbering."""
+
+    def __init__(self, matrix: ngs.BaseMatrix, free: np.ndarray):
+        from .direct import to_ngsolve, to_scipy_csr
+
+        self._forward = matrix.CreateSmoother(ngs.BitArray(free.tolist()))
+        self._reversed = np.flatnonzero(free)[::-1].copy()
+        block = to_scipy_csr(matrix, verify=False)[self._reversed][:, self._reversed]
+        self._reversed_matrix = to_ngsolve(block.tocsr())
+        self._backward = self._reversed_matrix.CreateSmoother()
+        self._x, self._b = self._reversed_matrix.CreateColVector(), self._reversed_matrix.CreateColVector()
+
+    def forward(self, x: ngs.BaseVector, b: ngs.BaseVector) -> None:
+        self._forward.Smooth(x, b)
+
+    def backward(self, x: ngs.BaseVector, b: ngs.BaseVector) -> None:
+        values = x.FV().NumPy()
+        self._x.FV().NumPy()[:] = values[self._reversed]
+        self._b.FV().NumPy()[:] = b.FV().NumPy()[self._reversed]
+        self._backward.Smooth(self._x, self._b)
+        values[self._reversed] = self._x.FV().NumPy()
+
+
+class _BlockGaussSeidel:
+    """Block Gauss–Seidel sweeps over the dof sets ``blocks``, forward and backward (NGSolve's block smoother)."""
+
+    def __init__(self, matrix: ngs.BaseMatrix, blocks: list[list[int]]):
+        self._smoother = matrix.CreateBlockSmoother(blocks)
+
+    def forward(self, x: ngs.BaseVector, b: ngs.BaseVector) -> None:
+        self._smoother.Smooth(x, b)
+
+    def backward(self, x: ngs.BaseVector, b: ngs.BaseVector) -> None:
+        self._smoother.SmoothBack(x, b)
+
+
 class Multigrid(_Operator):
     """A symmetric V-cycle for ``matrix`` (a P1 block on the vertices, unknowns component-major, ``freedofs``
     free) over the hierarchy ``parents``, ``counts`` of `vertex_levels`, ``smoothing`` Gauss–Seidel sweeps
@@ -111,7 +151,8 @@ class Multigrid(_Operator):
             self.prolongations.append(prolongation)
             self.restrictions.append(restriction)
             self.frees.append(ngs.BitArray(free_coarse.tolist()))
-        self.smoothers = [a.CreateSmoother(f) for a, f in zip(self.matrices[:-1], self.frees[:-1])]
+        self.smoothers = [GaussSeidel(a, np.fromiter(f, dtype=bool, count=a.height))
+                          for a, f in zip(self.matrices[:-1], self.frees[:-1])]
         self.coarse = self.matrices[-1].Inverse(self.frees[-1], inverse="sparsecholesky")
         self.levels = len(self.matrices)
         #: per level: its right-hand side and solution (the level above fills them) and its own residual
@@ -126,13 +167,13 @@ class Multigrid(_Operator):
         coarse_rhs, coarse_out, _ = self._vectors[level + 1]
         out[:] = 0.0
         for _ in range(self.smoothing):
-            smoother.Smooth(out, rhs)
+            smoother.forward(out, rhs)
         residual.data = rhs - matrix * out
         coarse_rhs.data = self.restrictions[level] * residual
         self._cycle(level + 1, coarse_rhs, coarse_out)
         out.data += self.prolongations[level] * coarse_out
         for _ in range(self.smoothing):
-            smoother.SmoothBack(out, rhs)
+            smoother.backward(out, rhs)
 
     def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
         self._cycle(0, x, y)
@@ -163,20 +204,21 @@ class TwoLevel(_Operator):
         super().__init__()
         self.shape_of, self.steps = matrix, steps
         self.gather, self.scatter, self.coarse = gather, gather.CreateTranspose(), coarse
-        self.smoother = matrix.CreateSmoother(freedofs) if blocks is None else matrix.CreateBlockSmoother(blocks)
+        self.smoother = GaussSeidel(matrix, np.fromiter(freedofs, dtype=bool, count=matrix.height)) if blocks is None \
+            else _BlockGaussSeidel(matrix, blocks)
         self._residual = matrix.CreateColVector()
         self._coarse_rhs, self._coarse_out = gather.CreateColVector(), gather.CreateColVector()
 
     def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
         y[:] = 0.0
         for _ in range(self.steps):
-            self.smoother.Smooth(y, x)
+            self.smoother.forward(y, x)
         self._residual.data = x - self.shape_of * y
         self._coarse_rhs.data = self.gather * self._residual
         self._coarse_out.data = self.coarse * self._coarse_rhs
         y.data += self.scatter * self._coarse_out
         for _ in range(self.steps):
-            self.smoother.SmoothBack(y, x)
+            self.smoother.backward(y, x)
 
 
 def algebraic_multigrid(mesh: ngs.Mesh, integrand, dirichlet: str, definedon: str | None = None):
