@@ -48,11 +48,12 @@ def scipy_cycle(matrices, prolongations, frees, smoothing, rhs):
     return solve(0, rhs)
 
 
-@pytest.mark.parametrize("smoothing", [1, 2])
-def test_cycle_equals_a_plain_v_cycle(smoothing):
-    """Four levels (level 3 of the paper's mesh): the cycle's every level, not only the finest and the coarsest."""
+@pytest.mark.parametrize("smoothing, iterations", [(1, 1), (2, 1), (4, 2)])
+def test_cycle_equals_a_plain_v_cycle(smoothing, iterations):
+    """Four levels (level 3 of the paper's mesh): the cycle's every level, not only the finest and the coarsest;
+    ``iterations`` V-cycles, each on the residual of the ones before."""
     mesh, form, free = p1_velocity_block(3)
-    cycle = Multigrid(form.mat, free, *vertex_levels(mesh), smoothing=smoothing)
+    cycle = Multigrid(form.mat, free, *vertex_levels(mesh), smoothing=smoothing, iterations=iterations)
     assert cycle.levels == 4
     matrices = [to_scipy_csr(a, verify=False) for a in cycle.matrices]
     prolongations = [to_scipy_csr(p, verify=False) for p in cycle.prolongations]
@@ -64,4 +65,6 @@ def test_cycle_equals_a_plain_v_cycle(smoothing):
     x.FV().NumPy()[:] = rhs
     y.data = cycle * x
     expected = scipy_cycle(matrices, prolongations, frees, smoothing, rhs)
+    for _ in range(iterations - 1):
+        expected += scipy_cycle(matrices, prolongations, frees, smoothing, rhs - matrices[0] @ expected)
     assert np.abs(y.FV().NumPy() - expected).max() <= 1e-10 * np.abs(expected).max()

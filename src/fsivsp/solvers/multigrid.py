@@ -132,12 +132,13 @@ class _BlockGaussSeidel:
 class Multigrid(_Operator):
     """A symmetric V-cycle for ``matrix`` (a P1 block on the vertices, unknowns component-major, ``freedofs``
     free) over the hierarchy ``parents``, ``counts`` of `vertex_levels`, ``smoothing`` Gauss–Seidel sweeps
-    before and after each coarse correction."""
+    before and after each coarse correction; ``iterations`` > 1 repeats it on the residual (x ← x + V(b − A x),
+    still symmetric)."""
 
     def __init__(self, matrix: ngs.BaseMatrix, freedofs: ngs.BitArray, parents: np.ndarray, counts: list[int],
-                 smoothing: int = SMOOTHING):
+                 smoothing: int = SMOOTHING, iterations: int = 1):
         super().__init__()
-        self.shape_of, self.smoothing = matrix, smoothing
+        self.shape_of, self.smoothing, self.iterations = matrix, smoothing, iterations
         dim = matrix.height // counts[-1]
         free = np.fromiter(freedofs, dtype=bool, count=matrix.height)
         vertex_free = free.reshape(dim, -1)
@@ -157,6 +158,7 @@ class Multigrid(_Operator):
         self.levels = len(self.matrices)
         #: per level: its right-hand side and solution (the level above fills them) and its own residual
         self._vectors = [(a.CreateColVector(), a.CreateColVector(), a.CreateColVector()) for a in self.matrices]
+        self._outer = (matrix.CreateColVector(), matrix.CreateColVector())   # the residual and correction of a repeat
 
     def _cycle(self, level: int, rhs: ngs.BaseVector, out: ngs.BaseVector) -> None:
         if level == self.levels - 1:
@@ -177,6 +179,10 @@ class Multigrid(_Operator):
 
     def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
         self._cycle(0, x, y)
+        for _ in range(self.iterations - 1):
+            self._outer[0].data = x - self.shape_of * y
+            self._cycle(0, self._outer[0], self._outer[1])
+            y.data += self._outer[1]
 
 
 def vertex_gather(vertex_dofs: np.ndarray, free: np.ndarray) -> ngs.BaseMatrix:

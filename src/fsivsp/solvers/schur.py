@@ -37,10 +37,11 @@ from .direct import to_ngsolve, to_scipy_csr
 from .multigrid import Multigrid, TwoLevel, algebraic_multigrid, has_hierarchy, vertex_block, vertex_gather, \
     vertex_levels
 
-#: Gauss–Seidel sweeps of F's V-cycle: F appears twice in the approximation, and its dofs (the fluid's
-#: pressure) are few. On level 3 of the 3D fluid ball MinRes needs 42 iterations with V(4,4), 58 with V(2,2)
-#: and 37 with F factorised.
-PRESSURE_SMOOTHING = 4
+#: Gauss–Seidel sweeps of F's V-cycle and V-cycles per application: F appears twice in the approximation, and
+#: its dofs (the fluid's pressure) are few, so that two V(4,4) cost 7% of a MinRes iteration on level 4 of the 3D
+#: fluid ball. There MinRes needs 53 iterations with two, 64 with one (and with a W-cycle), 49 with F factorised;
+#: on level 3 39, 43 and 39.
+PRESSURE_SMOOTHING, PRESSURE_CYCLES = 4, 2
 
 #: Block Gauss–Seidel sweeps over the vertex patches of a P_k pressure, k ≥ 2, above the V-cycle of its vertex
 #: block: point Gauss–Seidel left 165 MinRes iterations on level 1 of the 3D solid ball (Taylor–Hood k = 2,
@@ -130,7 +131,7 @@ class LeastSquaresCommutator:
         mesh = spaces.mesh
         levels = vertex_levels(mesh)
         if spaces.pressure.ndof == mesh.nv:
-            return Multigrid(self.f, used, *levels, smoothing=PRESSURE_SMOOTHING)
+            return Multigrid(self.f, used, *levels, smoothing=PRESSURE_SMOOTHING, iterations=PRESSURE_CYCLES)
         gather = vertex_gather(np.arange(mesh.nv)[None, :], self.used)   # Q_h's first nv dofs: the vertices
         cycle = Multigrid(vertex_block(self.f, gather), _bits(self.used[:mesh.nv]), *levels,
                           smoothing=PRESSURE_SMOOTHING)
