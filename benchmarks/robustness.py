@@ -35,7 +35,7 @@ def iterations(case, level: int, steps: int) -> dict:
     scheme.march(steps)
     stats = scheme.solver.statistics()["iterations"]
     return {"dofs": spaces.free_dofs(), "mean": stats["mean"], "max": stats["max"],
-            "multigrid": scheme.solver.preconditioner.multigrid, "seconds": time.perf_counter() - start}
+            "preconditioner": scheme.solver.preconditioner.describe(), "seconds": time.perf_counter() - start}
 
 
 def rows(max_level_2d: int, max_level_3d: int):

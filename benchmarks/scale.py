@@ -50,6 +50,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    seconds["matvec"] = matvec_seconds(scheme._matrix)
     start = time.perf_counter()
     scheme.march(steps)
     seconds["step"] = (time.perf_counter() - start) / steps
@@ -57,6 +58,21 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
             "cells": mesh.ne, "seconds": seconds, "steps": steps, "statistics": scheme.solver.statistics(),
             "setup_peak_bytes": setup_memory,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
+
+
+def matvec_seconds(matrix, repeats: int = 5) -> float:
+    """The median time of one product with the step matrix: the machine's cost of streaming it, which per
+    nonzero grows with the size here (memory bandwidth), so that time per step ÷ this is what the algorithm
+    adds."""
+    import statistics
+    x, y = matrix.CreateColVector(), matrix.CreateColVector()
+    x[:] = 1.0
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        y.data = matrix * x
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
 
 
 def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict | None:
@@ -120,15 +136,19 @@ def main() -> None:
             s, st = row["seconds"], row["statistics"]
             its = st.get("iterations") or {}
             print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  set-up {s['scheme']:8.1f} s "
-                  f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s  its {its.get('mean', 0):6.1f}  "
+                  f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s = {s['step'] / s['matvec']:7.1f} "
+                  f"products  its {its.get('mean', 0):6.1f}  "
                   f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = {row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
                   flush=True)
     its = [r for r in rows if r["solver"] == "iterative"]
     if len(its) >= 2:
         import math
         a, b = its[-2], its[-1]
-        growth = math.log(b["seconds"]["step"] / a["seconds"]["step"]) / math.log(b["dofs"] / a["dofs"])
-        print(f"iterative: time per step grows like N^{growth:.2f} between the two largest sizes")
+        def exponent(key):
+            return math.log(key(b) / key(a)) / math.log(b["dofs"] / a["dofs"])
+        print(f"iterative, between the two largest sizes: time per step grows like N^{exponent(lambda r: r['seconds']['step']):.2f}, "
+              f"one product with the step matrix like N^{exponent(lambda r: r['seconds']['matvec']):.2f}, "
+              f"time per step in products like N^{exponent(lambda r: r['seconds']['step'] / r['seconds']['matvec']):.2f}")
     if args.json:
         from fsivsp.report import write_json
         write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "maxh": args.maxh,
