@@ -3,6 +3,14 @@
     import fsivsp
     records = fsivsp.study(fsivsp.paper_case(dt=1e-2), range(0, 3))
 """
+import ngsolve as _ngsolve
+
+# One NGSolve thread. With its default, NGSolve's sparsecholesky (the multigrid's coarsest level, F of the
+# least-squares commutator, the error norms' Gram matrices) gave factors that differed at round-off from one
+# factorisation of the same matrix to the next (4e-12 on a 3 782-dof P1 block of the paper's level 2), so that
+# two identical iterative runs ended apart; with one thread they are bit-identical (tests/test_iterative.py).
+_ngsolve.SetNumThreads(1)
+
 from .expressions import ExpressionError, parse, parse_vector
 from .fields import Field
 from .geometry import paper_channel, refined

@@ -72,7 +72,8 @@ def _entries() -> list[Entry]:
     table += [Entry("taylor_hood", 1, 3, configuration, slow=True, curved=True) for configuration in balls]
     # The ball entries one level deeper (the iterative solver above 150 000 unknowns: 328 578 on level 3 of the
     # fluid ball with Taylor–Hood k = 1; 1.5–3 minutes each). Taylor–Hood k = 2 stays on 0–2: its P3 velocity on
-    # level 3 is too large to factorise, and the iterative solver does not converge for k ≥ 2 (docs/solvers.md).
+    # level 3 is too large to factorise, and the iterative solver, which converges for it, needs 75 s per step on
+    # 151 059 unknowns of the solid ball already (docs/solvers.md); level 3 has eight times level 2's unknowns.
     # The curved balls (meshed with curvature_safety = 2, finer) stay on 0–2: level 3 ran over 12 minutes at 7.4 GB
     # and was not finished this session.
     table += [Entry(family, 1, 3, configuration, slow=True, first_level=1) for configuration in balls
