@@ -10,20 +10,11 @@ fixed sequence of sparse operations, linear in N: what it costs more per unknown
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 from pathlib import Path
 
+from scale import median_seconds   # benchmarks/scale.py, next to this script
+
 EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
-
-
-def median_seconds(apply, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        apply()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def pieces(level: int, repeats: int) -> dict:

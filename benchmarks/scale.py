@@ -60,19 +60,27 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
 
 
+def median_seconds(apply, repeats: int) -> float:
+    """The median wall time of ``repeats`` calls of ``apply()``."""
+    import statistics
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        apply()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
 def matvec_seconds(matrix, repeats: int = 5) -> float:
     """The median time of one product with the step matrix: the machine's cost of streaming it, which per
     nonzero grows with the size here (memory bandwidth), so that time per step ÷ this is what the algorithm
     adds."""
-    import statistics
     x, y = matrix.CreateColVector(), matrix.CreateColVector()
     x[:] = 1.0
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+
+    def product():
         y.data = matrix * x
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    return median_seconds(product, repeats)
 
 
 def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict | None:

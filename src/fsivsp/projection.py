@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from ngsolve.krylovspace import CGSolver
 
 from .solvers import NotConverged, to_ngsolve, to_scipy_csr
-from .solvers.multigrid import COARSE_MAX_DOFS, Multigrid, TwoLevel, vertex_gather, vertex_levels
+from .solvers.multigrid import Multigrid, TwoLevel, bits, has_hierarchy, vertex_gather, vertex_levels
 
 #: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy). On level 4 of the
 #: 3D fluid ball (MINI, 190 000 dofs in one velocity component's norm) CG took 55 s and 0.35 GB where the Cholesky
@@ -45,12 +45,11 @@ def gram_solver(gram: ngs.BaseMatrix, space: ngs.FESpace, used: np.ndarray,
     """load, out ↦ out = G⁺ load on the ``used`` dofs (a mask) of ``space``. ``kernel``: an orthonormal basis
     (columns) of G's kernel on the dofs it names, or None. CG where G has more than `DIRECT_MAX` used dofs and
     the mesh a refinement hierarchy whose coarsest level can be factorised, else Cholesky."""
-    parents, counts = vertex_levels(space.mesh)
     vertices = vertex_dofs(space)
     vertices = vertices[[bool(used[row[row >= 0]].any()) for row in vertices]]  # the unknowns G sees
-    if used.sum() <= DIRECT_MAX or len(counts) < 2 or len(vertices) * counts[0] > COARSE_MAX_DOFS:
+    if used.sum() <= DIRECT_MAX or not has_hierarchy(space.mesh, len(vertices)):
         return _cholesky(gram, used, kernel is not None)
-    return _conjugate_gradients(gram, space.ndof, used, kernel, vertices, (parents, counts))
+    return _conjugate_gradients(gram, space.ndof, used, kernel, vertices, vertex_levels(space.mesh))
 
 
 def _cholesky(gram: ngs.BaseMatrix, used: np.ndarray, singular: bool) -> Solve:
@@ -60,7 +59,7 @@ def _cholesky(gram: ngs.BaseMatrix, used: np.ndarray, singular: bool) -> Solve:
     if singular:
         csr = to_scipy_csr(gram)
         factorised = to_ngsolve(csr + SINGULAR_SHIFT * sp.diags(csr.diagonal()))
-    inverse = factorised.Inverse(ngs.BitArray(used.tolist()), inverse="sparsecholesky")
+    inverse = factorised.Inverse(bits(used), inverse="sparsecholesky")
 
     def solve(load: ngs.BaseVector, out: ngs.BaseVector) -> None:
         out.data = inverse * load
@@ -109,8 +108,8 @@ def _conjugate_gradients(gram: ngs.BaseMatrix, ndof: int, used: np.ndarray,
     block = csr[index][:, index]
     if kernel is not None:
         block = block + PRECONDITIONER_SHIFT * sp.diags(block.diagonal())
-    cycle = Multigrid(to_ngsolve(block), ngs.BitArray(free.tolist()), *levels)
-    preconditioner = TwoLevel(gram, ngs.BitArray(used.tolist()), vertex_gather(vertices, used), cycle)
+    cycle = Multigrid(to_ngsolve(block), bits(free), *levels)
+    preconditioner = TwoLevel(gram, bits(used), vertex_gather(vertices, used), cycle)
     if kernel is not None:
         clear = _KernelClearing(*kernel, ndof)
         preconditioner = clear @ preconditioner @ clear

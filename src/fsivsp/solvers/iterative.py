@@ -26,8 +26,8 @@ from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
 from .direct import SolverError
-from .multigrid import SMOOTHING, Multigrid, TwoLevel, algebraic_multigrid, has_hierarchy, vertex_block, vertex_gather, \
-    vertex_levels
+from .multigrid import SMOOTHING, Multigrid, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, \
+    vertex_gather, vertex_levels
 from .schur import LeastSquaresCommutator, pressure_schur
 
 #: Default tolerance: MinRes stops when its (preconditioned) residual is below this fraction of the
@@ -40,10 +40,6 @@ MAX_ITERATIONS = 2000
 
 class NotConverged(SolverError):
     """MinRes reached its iteration limit above its tolerance."""
-
-
-def _bits(mask: np.ndarray) -> ngs.BitArray:
-    return ngs.BitArray(mask.tolist())
 
 
 def velocity_vertex_dofs(spaces: Spaces) -> np.ndarray:
@@ -82,9 +78,9 @@ class BlockPreconditioner:
         gather = vertex_gather(vertices, velocity)
         vertex_free = velocity[vertices.ravel()]
         self.multigrid = has_hierarchy(mesh, mesh.dim)
-        coarse = Multigrid(vertex_block(matrix, gather), _bits(vertex_free), *vertex_levels(mesh)) if self.multigrid \
+        coarse = Multigrid(vertex_block(matrix, gather), bits(vertex_free), *vertex_levels(mesh)) if self.multigrid \
             else self._component_amg(spaces, mat, dt, vertex_free)
-        self.velocity = TwoLevel(matrix, _bits(velocity), gather, coarse, steps=velocity_smoothing(spaces))
+        self.velocity = TwoLevel(matrix, bits(velocity), gather, coarse, steps=velocity_smoothing(spaces))
         self.pressure = pressure_schur(matrix, spaces, mat, dt, vertices)
         self.schur = self.pressure.mat
         self.mat = self.velocity + self.schur

@@ -26,6 +26,11 @@ SMOOTHING = 2
 COARSE_MAX_DOFS = 60_000
 
 
+def bits(mask: np.ndarray) -> ngs.BitArray:
+    """A boolean mask as NGSolve's ``BitArray`` (free dofs, used dofs)."""
+    return ngs.BitArray(mask.tolist())
+
+
 def vertex_levels(mesh: ngs.Mesh) -> tuple[np.ndarray, list[int]]:
     """The parents of every vertex (−1 for none) and the vertex counts of the refinement levels, coarsest
     first: level l's new vertices follow level l − 1's and have both parents among them. Kept on the mesh (the
@@ -99,7 +104,7 @@ class GaussSeidel:
     def __init__(self, matrix: ngs.BaseMatrix, free: np.ndarray):
         from .direct import to_ngsolve, to_scipy_csr
 
-        self._forward = matrix.CreateSmoother(ngs.BitArray(free.tolist()))
+        self._forward = matrix.CreateSmoother(bits(free))
         self._reversed = np.flatnonzero(free)[::-1].copy()
         block = to_scipy_csr(matrix, verify=False)[self._reversed][:, self._reversed]
         self._reversed_matrix = to_ngsolve(block.tocsr())
@@ -152,7 +157,7 @@ class Multigrid(_Operator):
             self.matrices.append(restriction @ (self.matrices[-1] @ prolongation))
             self.prolongations.append(prolongation)
             self.restrictions.append(restriction)
-            self.frees.append(ngs.BitArray(free_coarse.tolist()))
+            self.frees.append(bits(free_coarse))
         self.smoothers = [GaussSeidel(a, np.fromiter(f, dtype=bool, count=a.height))
                           for a, f in zip(self.matrices[:-1], self.frees[:-1])]
         self.coarse = self.matrices[-1].Inverse(self.frees[-1], inverse="sparsecholesky")

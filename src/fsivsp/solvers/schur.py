@@ -34,7 +34,7 @@ from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
 from .direct import to_ngsolve, to_scipy_csr
-from .multigrid import Multigrid, TwoLevel, algebraic_multigrid, has_hierarchy, vertex_block, vertex_gather, \
+from .multigrid import Multigrid, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, vertex_gather, \
     vertex_levels
 
 #: Gauss–Seidel sweeps of F's V-cycle and V-cycles per application: F appears twice in the approximation, and
@@ -50,10 +50,6 @@ PATCH_SMOOTHING = 2
 
 #: Without a refinement hierarchy F is factorised up to this many fluid pressure dofs, else `CahouetChabard`.
 FACTORISE_MAX_DOFS = 30_000
-
-
-def _bits(mask: np.ndarray) -> ngs.BitArray:
-    return ngs.BitArray(mask.tolist())
 
 
 def fluid_divergence(spaces: Spaces, dt: float) -> sp.csr_matrix:
@@ -74,7 +70,7 @@ def inverse_diagonal(matrix: ngs.BaseMatrix, free: np.ndarray) -> np.ndarray:
     ones = matrix.CreateColVector()
     ones.FV().NumPy()[:] = 1.0
     out = matrix.CreateColVector()
-    out.data = matrix.CreateSmoother(_bits(free)) * ones
+    out.data = matrix.CreateSmoother(bits(free)) * ones
     return out.FV().NumPy().copy()
 
 
@@ -125,7 +121,7 @@ class LeastSquaresCommutator:
     def _inverse(self, spaces: Spaces, inverse: str) -> ngs.BaseMatrix:
         """F⁻¹ on Q_h: a V-cycle (P1 pressure) or `TwoLevel` over the V-cycle of its vertex block (P_k, k ≥ 2),
         or a factorisation."""
-        used = _bits(self.used)
+        used = bits(self.used)
         if inverse == "factorised":
             return self.f.Inverse(used, inverse="sparsecholesky")
         mesh = spaces.mesh
@@ -133,7 +129,7 @@ class LeastSquaresCommutator:
         if spaces.pressure.ndof == mesh.nv:
             return Multigrid(self.f, used, *levels, smoothing=PRESSURE_SMOOTHING, iterations=PRESSURE_CYCLES)
         gather = vertex_gather(np.arange(mesh.nv)[None, :], self.used)   # Q_h's first nv dofs: the vertices
-        cycle = Multigrid(vertex_block(self.f, gather), _bits(self.used[:mesh.nv]), *levels,
+        cycle = Multigrid(vertex_block(self.f, gather), bits(self.used[:mesh.nv]), *levels,
                           smoothing=PRESSURE_SMOOTHING)
         return TwoLevel(self.f, used, gather, cycle, steps=PATCH_SMOOTHING, blocks=vertex_patches(spaces.pressure, self.used))
 
@@ -177,7 +173,7 @@ class CahouetChabard:
             full.Assemble()
             higher = np.fromiter(Q.FreeDofs(), dtype=bool, count=Q.ndof)
             higher[:nv] = False
-            schur = schur + mat.rho_fluid / dt**2 * full.mat.CreateSmoother(_bits(higher))
+            schur = schur + mat.rho_fluid / dt**2 * full.mat.CreateSmoother(bits(higher))
             self._keep.append(full)
         pressure = ngs.la.Embedding(X.ndof, ngs.IntRange(V.ndof, X.ndof))
         self.mat = pressure @ schur @ pressure.T
