@@ -99,7 +99,7 @@ def test_iterations_bounded_over_levels():
 
 
 _FINAL_STATE = """
-import hashlib, sys
+import hashlib
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.study import discretise
