@@ -1,12 +1,17 @@
 # Set-up is two commands on a fresh machine: `make demo` and `make test`.
-PYTHON ?= python3
+# The venv sees the system's site-packages (Debian's petsc4py, mpi4py and Open MPI: one MPI for NGSolve, PETSc
+# and mpi4py), so it is made by the system's Python where there is one.
+PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || echo python3)
 VENV := .venv
 BIN := $(VENV)/bin
 
 .PHONY: install demo test test-all bench clean
 
-$(VENV): pyproject.toml
-	$(PYTHON) -m venv $(VENV)
+$(VENV): pyproject.toml tools/install-system.sh
+	bash tools/install-system.sh
+	$(PYTHON) -m venv --system-site-packages $(VENV)
+	ls -d /usr/lib/petscdir/*/*-real/lib/python3/dist-packages 2>/dev/null | head -1 \
+		> $$($(BIN)/python -c "import sysconfig; print(sysconfig.get_path('purelib'))")/petsc4py-system.pth
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,fast]"
 	touch $(VENV)
