@@ -49,7 +49,7 @@ def mpirun(*args: str, ranks: int = 2) -> subprocess.CompletedProcess:
     """``mpirun -np ranks fsivsp args`` with this checkout's sources, as root if need be (CI), on any number of
     cores; fails the test if it does not end within `TIMEOUT`."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", PRTE_MCA_rmaps_default_mapping_policy=":oversubscribe")
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
     return subprocess.run([MPIRUN, "-np", str(ranks), sys.executable, "-m", "fsivsp.cli", *args],
                           capture_output=True, text=True, env=env, timeout=TIMEOUT)
 
