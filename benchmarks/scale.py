@@ -99,8 +99,8 @@ def plot(rows: list[dict], path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
-    for solver, marker in (("iterative", "o"), ("direct", "s")):
-        mine = [r for r in rows if (r["solver"] == "iterative") == (solver == "iterative")]
+    for solver, marker in (("iterative", "o"), ("petsc", "^"), ("direct", "s")):
+        mine = [r for r in rows if r["solver"] == solver or (solver == "direct" and r["solver"] not in ("iterative", "petsc"))]
         if not mine:
             continue
         n = [r["dofs"] for r in mine]
@@ -115,6 +115,21 @@ def plot(rows: list[dict], path: Path) -> None:
     fig.savefig(path, dpi=120)
 
 
+def growth(rows: list[dict], method: str) -> None:
+    """Print how the time per step of ``method`` grows between its two largest sizes."""
+    import math
+    mine = [r for r in rows if r["solver"] == method]
+    if len(mine) < 2:
+        return
+    a, b = mine[-2], mine[-1]
+
+    def exponent(key):
+        return math.log(key(b) / key(a)) / math.log(b["dofs"] / a["dofs"])
+    print(f"{method}, between the two largest sizes: time per step grows like N^{exponent(lambda r: r['seconds']['step']):.2f}, "
+          f"one product with the step matrix like N^{exponent(lambda r: r['seconds']['matvec']):.2f}, "
+          f"time per step in products like N^{exponent(lambda r: r['seconds']['step'] / r['seconds']['matvec']):.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", default="1-4", help="refinement levels A-B")
@@ -122,6 +137,7 @@ def main() -> None:
     parser.add_argument("--direct-max", type=int, default=3, help="the highest level the direct solver runs")
     parser.add_argument("--maxh", type=float, default=None, help="the coarse ball's mesh size (default: the example's)")
     parser.add_argument("--tolerance", type=float, default=1e-12, help="the iterative solver's tolerance")
+    parser.add_argument("--solvers", default="direct,iterative,petsc", help="comma-separated solver names")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--plot", type=Path, default=None)
     parser.add_argument("--child", default=None, help=argparse.SUPPRESS)
@@ -134,7 +150,7 @@ def main() -> None:
     low, high = (int(x) for x in args.levels.split("-"))
     rows = []
     for level in range(low, high + 1):
-        for solver in ("direct", "iterative"):
+        for solver in args.solvers.split(","):
             if solver == "direct" and level > args.direct_max:
                 continue
             row = child(level, solver, args.steps, args.maxh, args.tolerance)
@@ -148,15 +164,8 @@ def main() -> None:
                   f"products  its {its.get('mean', 0):6.1f}  "
                   f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = {row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
                   flush=True)
-    its = [r for r in rows if r["solver"] == "iterative"]
-    if len(its) >= 2:
-        import math
-        a, b = its[-2], its[-1]
-        def exponent(key):
-            return math.log(key(b) / key(a)) / math.log(b["dofs"] / a["dofs"])
-        print(f"iterative, between the two largest sizes: time per step grows like N^{exponent(lambda r: r['seconds']['step']):.2f}, "
-              f"one product with the step matrix like N^{exponent(lambda r: r['seconds']['matvec']):.2f}, "
-              f"time per step in products like N^{exponent(lambda r: r['seconds']['step'] / r['seconds']['matvec']):.2f}")
+    for method in ("iterative", "petsc"):
+        growth(rows, method)
     if args.json:
         from fsivsp.report import write_json
         write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "maxh": args.maxh,

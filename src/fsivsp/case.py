@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,7 @@ SECTIONS = {
     "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
                        "curved"},
     "exact": {"velocity", "pressure", "displacement"},
+    "solver": {"petsc"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
 
@@ -116,10 +118,39 @@ class Discretisation:
     curved: bool = True
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
+    petsc: dict[str, str] = field(default_factory=dict)
 
 
-def read_discretisation(table: dict) -> Discretisation:
+PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
+
+
+def read_petsc_options(table: dict, where: str = "solver.petsc") -> dict[str, str]:
+    """The ``[solver.petsc]`` table: PETSc option names (without the leading dash and the ``fsivsp_`` prefix,
+    e.g. ``ksp_monitor = true``, ``fieldsplit_velocity_pc_type = "gamg"``) to strings, numbers or booleans
+    (true: the option without a value; false: left out), as `solvers.petsc` passes them to PETSc."""
+    if not isinstance(table, dict):
+        raise CaseError(f"{where}: expected a table of PETSc options, got {table!r}")
+    options = {}
+    for key, value in table.items():
+        name = key.lstrip("-")
+        if not PETSC_OPTION.fullmatch(name):
+            raise CaseError(f"{where}.{key}: expected a PETSc option name (letters, digits, _), got {key!r}")
+        if isinstance(value, bool):
+            if value:
+                options[name] = ""
+        elif isinstance(value, (str, int, float)):
+            options[name] = str(value)
+        else:
+            raise CaseError(f"{where}.{key}: expected a string, a number or true/false, got {value!r}")
+    return options
+
+
+def read_discretisation(table: dict, solver: dict | None = None) -> Discretisation:
+    """``[discretisation]``, and the PETSc options of ``[solver]`` (``solver``)."""
     check_keys(table, SECTIONS["discretisation"], "discretisation")
+    solver = solver or {}
+    check_keys(solver, SECTIONS["solver"], "solver")
+    petsc = read_petsc_options(solver.get("petsc", {}))
     family = choice(table, "family", "discretisation", FAMILIES, "mini")
     low, high = ORDERS[family]
     order = table.get("order", low)
@@ -127,7 +158,7 @@ def read_discretisation(table: dict) -> Discretisation:
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
     initial = choice(table, "initial_stress", "discretisation", INITIAL_STRESS, INITIAL_STRESS[0])
     velocity = choice(table, "initial_velocity", "discretisation", INITIAL_VELOCITY, INITIAL_VELOCITY[0])
-    solver = choice(table, "solver", "discretisation", solver_names(), "auto")
+    method = choice(table, "solver", "discretisation", solver_names(), "auto")
     tolerance = number(table, "tolerance", "discretisation", TOLERANCE, minimum=0)
     if tolerance >= 1:
         raise CaseError(f"discretisation.tolerance: expected a number in (0, 1), got {tolerance!r}")
@@ -137,7 +168,7 @@ def read_discretisation(table: dict) -> Discretisation:
     limit = table.get("max_iterations", MAX_ITERATIONS)
     if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
         raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
-    return Discretisation(family, order, initial, velocity, solver, curved, tolerance, limit)
+    return Discretisation(family, order, initial, velocity, method, curved, tolerance, limit, petsc)
 
 
 def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
@@ -194,7 +225,7 @@ def load_study_case(path: str | Path) -> StudyCase:
     geometry, dim = read_geometry(section(doc, "geometry"))
     materials = read_materials(section(doc, "materials"), dim)
     T, dt, scheme = read_time(section(doc, "time"))
-    disc = read_discretisation(section(doc, "discretisation", required=False))
+    disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
     exact_table = section(doc, "exact")
     check_keys(exact_table, SECTIONS["exact"], "exact")
     for key in SECTIONS["exact"]:
@@ -223,5 +254,5 @@ def to_study(case: StudyCase):
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
         initial_velocity=disc.initial_velocity,
         project_refinement=disc.curved, solver=disc.solver, curved=disc.curved, tolerance=disc.tolerance,
-        max_iterations=disc.max_iterations, time_scheme=case.time_scheme,
+        max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme,
     )

@@ -144,6 +144,7 @@ def build_parser() -> Parser:
     paper.add_argument("--tolerance", type=tolerance_arg, default=TOLERANCE,
                        help=f"the iterative solver's relative tolerance (default {TOLERANCE:g})")
     scheme_options(paper)
+    petsc_argument(paper)
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
     paper.add_argument("--out", type=Path, default=None, metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
@@ -163,6 +164,7 @@ def build_parser() -> Parser:
     scheme_options(study)
     study.add_argument("--json", type=Path, default=None, metavar="PATH",
                        help="write one record per level (per time step with --dt) to PATH")
+    petsc_argument(study)
     study.add_argument("--quiet", action="store_true", help="no progress bars")
     study.set_defaults(handler=study_command)
 
@@ -188,12 +190,43 @@ def build_parser() -> Parser:
     return parser
 
 
+def petsc_options_arg(text: str) -> dict[str, str]:
+    """``--petsc-options "-ksp_monitor -fieldsplit_velocity_pc_type gamg"``: PETSc options (without the
+    ``fsivsp_`` prefix) as the case file's ``[solver.petsc]`` table takes them."""
+    from .case import CaseError, read_petsc_options
+
+    def is_name(word: str) -> bool:
+        return word.startswith("-") and not word[1:2].isdigit() and word[1:2] != "."
+
+    options: dict = {}
+    name = None
+    for word in text.split():
+        if is_name(word):
+            name = word.lstrip("-")
+            options[name] = True
+        elif name is not None and options[name] is True:
+            options[name] = word
+        else:
+            raise argparse.ArgumentTypeError(f"expected '-name [value] ...', got {word!r}")
+    try:
+        return read_petsc_options(options, "--petsc-options")
+    except CaseError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
+def petsc_argument(parser) -> None:
+    parser.add_argument("--petsc-options", type=petsc_options_arg, default={}, metavar="'-OPTION [VALUE] ...'",
+                        help="PETSc options of --solver petsc, e.g. '-ksp_monitor -fieldsplit_velocity_pc_type gamg' "
+                             "(docs/solvers.md; also the case file's [solver.petsc] and PETSC_OPTIONS with the "
+                             "fsivsp_ prefix)")
+
+
 def paper_options(args) -> dict:
     from .timeschemes import Theta
 
     return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
             "project_refinement": args.project, "solver": args.solver, "tolerance": args.tolerance,
-            "time_scheme": chosen_scheme(args, Theta())}
+            "petsc_options": args.petsc_options, "time_scheme": chosen_scheme(args, Theta())}
 
 
 def paper_job(job: tuple[float, int, dict]) -> dict:
@@ -288,7 +321,8 @@ def study_command(args) -> int:
 
     case = to_study(load_study_case(args.case))
     distributed_check("study", case.solver, case.initial_velocity)
-    case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme))
+    case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme),
+                   petsc_options={**case.petsc_options, **args.petsc_options})
     element = f"{case.family}{'' if case.family == 'mini' else case.order}"
     if args.dt is not None:
         records = time_study(case, args.level, args.dt, quiet=args.quiet)

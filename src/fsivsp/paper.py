@@ -25,7 +25,8 @@ T_FINAL = 1.0
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
                solver: str | None = None, initial_velocity: str = "interpolation",
-               tolerance: float = TOLERANCE, time_scheme: Theta | BDF2 = Theta()) -> Case:
+               tolerance: float = TOLERANCE, time_scheme: Theta | BDF2 = Theta(),
+               petsc_options: dict | None = None) -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt`` (backward Euler, or
     ``time_scheme``)."""
     return Case(
@@ -41,6 +42,7 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         solver=solver,
         tolerance=tolerance,
         time_scheme=time_scheme,
+        petsc_options=petsc_options or {},
     )
 
 

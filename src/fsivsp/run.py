@@ -28,7 +28,7 @@ from .fields import Field
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
 from .quadratic import curve
 
-RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "data", "boundary", "output", "checkpoint"}
+RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
 OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk"}
 CHECKPOINT_KEYS = {"every"}
@@ -130,7 +130,7 @@ def load_run_case(path: str | Path) -> RunCase:
     geometry, dim = read_geometry(section(doc, "geometry"))
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
     T, dt, scheme = read_time(section(doc, "time"))
-    disc = read_discretisation(section(doc, "discretisation", required=False))
+    disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
     data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
@@ -186,7 +186,7 @@ def build_scheme(case: RunCase):
         boundary_traction=traction,
     )
     return Scheme(spaces, case.materials, data, case.dt, solver=disc.solver, tolerance=disc.tolerance,
-                  max_iterations=disc.max_iterations, time_scheme=case.time_scheme)
+                  max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme)
 
 
 class _Interrupt:

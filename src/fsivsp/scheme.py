@@ -109,9 +109,10 @@ class Scheme:
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
                  solver: str | None = None, tolerance: float = TOLERANCE,
-                 max_iterations: int = MAX_ITERATIONS, time_scheme: Theta | BDF2 = Theta()):
+                 max_iterations: int = MAX_ITERATIONS, time_scheme: Theta | BDF2 = Theta(),
+                 petsc_options: dict | None = None):
         """``solver``: a name `solvers.step_solver` accepts (None: ``"auto"``); ``tolerance`` and
-        ``max_iterations`` are the iterative solver's; ``time_scheme``: `timeschemes.time_scheme`."""
+        ``max_iterations`` are the iterative solvers'; ``petsc_options`` the PETSc solver's (`solvers.petsc`); ``time_scheme``: `timeschemes.time_scheme`."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
@@ -121,7 +122,8 @@ class Scheme:
         step = forms.step_matrix(spaces, materials, self.tau).Assemble()
         self._matrix = compact(step.mat)
         del step
-        self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations)
+        self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations,
+                                  petsc_options)
         self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
         self._lagged_coefficients = time_scheme.lagged(dt)
         self._lagged = compact(forms.lagged_operator(spaces, materials, *self._lagged_coefficients).Assemble().mat)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import ngsolve as ngs
@@ -42,6 +42,8 @@ class Case:
     curved: bool = False
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
+    #: PETSc options of ``solver = "petsc"`` (`solvers.petsc`), without the ``fsivsp_`` prefix
+    petsc_options: dict = field(default_factory=dict)
     time_scheme: Theta | BDF2 = Theta()
 
     @property
@@ -120,7 +122,8 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
     scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
-                    max_iterations=case.max_iterations, time_scheme=case.time_scheme)
+                    max_iterations=case.max_iterations, petsc_options=case.petsc_options,
+                    time_scheme=case.time_scheme)
     return scheme, Errors(scheme, case.exact)
 
 

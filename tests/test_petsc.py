@@ -1,0 +1,97 @@
+"""The PETSc backend (`fsivsp.solvers.petsc`): the direct solver's errors on every family in 2D and 3D,
+iteration counts bounded over levels (and not with Jacobi in place of the fieldsplit's blocks), options from
+the case file and the command line."""
+import dataclasses
+import json
+from pathlib import Path
+
+import pytest
+
+from fsivsp.case import CaseError, load_study_case, read_petsc_options, to_study
+from fsivsp.cli import main
+from fsivsp.paper import paper_case
+from fsivsp.solvers import petsc
+from fsivsp.study import study
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+
+pytestmark = pytest.mark.skipif(petsc.available() is not None, reason=str(petsc.available()))
+
+
+def same_errors(case, levels, rtol=1e-6) -> list[dict]:
+    """Run ``case`` with the direct solver and with PETSc; assert equal error norms; return PETSc's records."""
+    direct = study(dataclasses.replace(case, solver="direct"), levels)
+    records = study(dataclasses.replace(case, solver="petsc"), levels)
+    for a, b in zip(direct, records):
+        assert b["solver"] == "petsc" and a["solver"] != "petsc"
+        for name, error in a["errors"].items():
+            assert b["errors"][name] == pytest.approx(error, rel=rtol), (a["level"], name)
+    return records
+
+
+def example(name: str, **changes):
+    return dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{name}.toml")), **changes)
+
+
+@pytest.mark.parametrize("name, levels, changes", [
+    ("fluid_over_solid_2d", range(0, 2), {}),                 # Taylor–Hood k = 1
+    ("fluid_over_solid_2d", range(0, 2), {"order": 2}),       # a P2 pressure: the plain commutator
+    ("fluid_in_solid_2d", range(0, 2), {}),
+    ("solid_in_fluid_2d", range(0, 2), {}),
+    ("fluid_in_solid_3d", range(0, 2), {}),                   # MINI with quartic bubbles
+    ("fluid_over_solid_3d", range(0, 1), {}),
+    ("fluid_over_solid_3d", range(0, 1), {"family": "taylor_hood", "order": 1}),
+])
+def test_equals_direct(name, levels, changes):
+    same_errors(example(name, **changes), levels)
+
+
+def test_paper_experiment_equals_direct_and_iterations_bounded():
+    """Levels 1–3 of Section 5.3 (Δt = 1e-2, 100 steps): the direct solver's errors to 1e-6, at most 25
+    iterations per step, growing at most 30 % per level (measured 10.1, 11.0, 13.0)."""
+    records = same_errors(paper_case(1e-2), range(1, 4))
+    counts = [r["iterations"]["mean"] for r in records]
+    assert max(counts) <= 25, counts
+    assert all(b <= 1.3 * a for a, b in zip(counts, counts[1:])), counts
+
+
+def test_jacobi_blocks_need_many_more_iterations():
+    """The bound above can fail: Jacobi in place of the AMG and the commutator needs far more iterations and
+    grows with the level."""
+    jacobi = {"fieldsplit_velocity_pc_type": "jacobi", "schur_approximation": "petsc",
+              "fieldsplit_pressure_pc_type": "jacobi", "pc_fieldsplit_schur_precondition": "selfp"}
+    case = dataclasses.replace(paper_case(1e-2), solver="petsc", petsc_options=jacobi, T=0.05)
+    counts = [r["iterations"]["mean"] for r in study(case, range(1, 3))]
+    assert counts[0] > 40 and counts[1] > 1.3 * counts[0], counts
+
+
+def test_case_file_options_reach_petsc(tmp_path):
+    """``[solver.petsc]`` sets PETSc options (here GMRES for FGMRES); the JSON records the method and the
+    Krylov method; the options are cleared from PETSc's database afterwards."""
+    text = (EXAMPLES / "fluid_in_solid_2d.toml").read_text()
+    text = text.replace("[discretisation]", '[discretisation]\nsolver = "petsc"', 1)
+    case = tmp_path / "case.toml"
+    case.write_text(text + '\n[solver.petsc]\nksp_type = "gmres"\nksp_gmres_restart = 50\n')
+    out = tmp_path / "out.json"
+    assert main(["study", str(case), "--levels", "0", "--json", str(out), "--quiet"]) == 0
+    record = json.loads(out.read_text())[0]
+    assert record["solver"] == "petsc" and record["preconditioner"]["ksp"] == "gmres"
+    from petsc4py import PETSc
+    assert not PETSc.Options().hasName("fsivsp_ksp_type")
+
+
+def test_petsc_options_validated():
+    assert read_petsc_options({"ksp_monitor": True, "ksp_rtol": 1e-8, "pc_type": "lu", "off": False}) == \
+        {"ksp_monitor": "", "ksp_rtol": "1e-08", "pc_type": "lu"}
+    with pytest.raises(CaseError, match=r"solver.petsc.KSP type: expected a PETSc option name"):
+        read_petsc_options({"KSP type": "gmres"})
+    with pytest.raises(CaseError, match=r"solver.petsc.ksp_type: expected a string, a number or true/false"):
+        read_petsc_options({"ksp_type": ["gmres"]})
+
+
+def test_command_line_options(capsys):
+    """``--petsc-options`` on ``paper``; a malformed one is one line and exit 2."""
+    assert main(["paper", "--levels", "0", "--dt", "0.05", "--solver", "petsc", "--quiet",
+                 "--petsc-options", "-ksp_type gmres"]) == 0
+    assert main(["paper", "--levels", "0", "--solver", "petsc", "--petsc-options", "ksp_type gmres"]) == 2
+    assert "--petsc-options: expected '-name [value] ...', got 'ksp_type'" in capsys.readouterr().err
