@@ -255,3 +255,26 @@ def test_factorise_falls_back_and_reports_a_singular_matrix():
     everything.Set()  # pressure dofs outside the fluid have empty rows: singular
     with pytest.raises(SolverError, match="no direct solver passed"):
         factorise(a.mat, everything)
+
+
+def test_factorise_never_changes_method_silently(monkeypatch, capsys):
+    """A forced residual failure of the preferred method (PARDISO, and PARDISO retried with more refinement)
+    is one line on stderr naming both methods and the residual, and is recorded in `statistics`."""
+    from fsivsp.solvers import direct, factorise
+
+    X, a = _system(_mesh(0))
+    preferred = [m for m in direct.METHODS if m in direct.PIVOTING_METHODS and m in available_methods()]
+    failing = 2 if preferred[0] == "pardiso" else 1
+    real, calls = direct._free_residual, []
+
+    def forced(*args, **kwargs):
+        calls.append(1)
+        return 1e-3 if len(calls) <= failing else real(*args, **kwargs)
+
+    monkeypatch.setattr(direct, "_free_residual", forced)
+    solver = factorise(a.mat, X.FreeDofs())
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and preferred[0] in lines[0] and solver.method in lines[0] and "1.00e-03" in lines[0]
+    assert solver.method == preferred[1] and solver.residual < 1e-10
+    fallback = solver.statistics()["fallback"]
+    assert fallback["from"] == preferred[0] and fallback["residual"] == 1e-3

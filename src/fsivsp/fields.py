@@ -7,13 +7,42 @@ cost; otherwise it is recomputed from the field at each time.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Callable
 
 import ngsolve as ngs
+import numpy as np
 import sympy
 
-from .expressions import separate_time_vector, to_coefficient, to_function
+from .expressions import SPACE, T, separate_time_vector, to_coefficient, to_function
+
+#: Sample points of the numerical zero test (seeded: the verdict is deterministic).
+ZERO_SAMPLES = 256
+#: |f| <= ZERO_RTOL · Σ|terms of f| at every sample point counts as zero (cancellation to round-off).
+ZERO_RTOL = 1e-10
+
+
+@functools.cache
+def expression_is_zero(expr: sympy.Expr, box: tuple = ((0.0, 1.0),) * 3, times: tuple = (0.0, 1.0)) -> bool:
+    """Whether ``expr`` of x, y, z, t vanishes: structurally after `expand`, else numerically at
+    `ZERO_SAMPLES` seeded points of ``box`` × ``times``, within `ZERO_RTOL` of the magnitude of its terms.
+    Cached, so a study decides each expression once, not per level (no ``simplify``: ~1 s per trigonometric
+    expression)."""
+    expanded = sympy.expand(expr)
+    if expanded == 0:
+        return True
+    if not expanded.free_symbols <= {*SPACE, T}:
+        raise ValueError(f"zero test: unexpected symbols {sorted(map(str, expanded.free_symbols - {*SPACE, T}))}")
+    rng = np.random.default_rng(20180101)
+    lows, highs = zip(*box, times)
+    points = rng.uniform(lows, highs, size=(ZERO_SAMPLES, 4)).T
+    terms = sympy.Add.make_args(expanded)
+    values = [np.broadcast_to(sympy.lambdify((*SPACE, T), term, "numpy")(*points), (ZERO_SAMPLES,))
+              for term in terms]
+    total = np.abs(np.sum(values, axis=0))
+    scale = np.sum(np.abs(values), axis=0)
+    return bool(np.all(np.isfinite(total)) and np.all(total <= ZERO_RTOL * scale))
 
 
 @dataclass
@@ -40,8 +69,10 @@ class Field:
         """The whole field as a CoefficientFunction, time from ``t`` (Parameter or float)."""
         return to_coefficient(self.expr, t).Compile()
 
-    def is_zero(self) -> bool:
-        return all(sympy.simplify(c) == 0 for c in self.components())
+    def is_zero(self, box: tuple = ((0.0, 1.0),) * 3, times: tuple = (0.0, 1.0)) -> bool:
+        """Whether every component vanishes on ``box`` × ``times`` (`expression_is_zero`)."""
+        return all(expression_is_zero(sympy.sympify(c), tuple(map(tuple, box)), tuple(times))
+                   for c in self.components())
 
     def separated(self) -> list[tuple[Callable[[float], float], ngs.CoefficientFunction]] | None:
         """[(T_k, F_k)] with f = Σ T_k(t) F_k(x), or None if f does not separate."""

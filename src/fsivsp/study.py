@@ -7,6 +7,7 @@ from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import ngsolve as ngs
+import numpy as np
 from tqdm.auto import tqdm
 
 from . import parallel
@@ -170,12 +171,13 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
 
 
 def max_edge_length(mesh: ngs.Mesh) -> float:
-    """h: the longest edge of the mesh."""
-    longest = 0.0
-    for edge in mesh.edges:
-        a, b = (mesh[v].point for v in edge.vertices)
-        longest = max(longest, math.dist(a, b))
-    return longest
+    """h: the longest edge of an active cell (simplices). Not ``mesh.edges``: a netgen-refined mesh keeps
+    its parents' edges there, so h would stay the coarse mesh's."""
+    ngmesh = mesh.ngmesh
+    cells = (ngmesh.Elements2D() if mesh.dim == 2 else ngmesh.Elements3D()).NumPy()["nodes"][:, :mesh.dim + 1] - 1
+    points = np.asarray(ngmesh.Coordinates())[:, :mesh.dim][cells]          # cells × corners × dim
+    i, j = np.triu_indices(mesh.dim + 1, 1)
+    return float(np.linalg.norm(points[:, i] - points[:, j], axis=-1).max())
 
 
 def rates(records: list[dict], dim: int) -> None:

@@ -31,6 +31,7 @@ Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
 from __future__ import annotations
 
 import functools
+import sys
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -73,9 +74,17 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: fast as METIS here and factorises 1.4x faster.
 PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0}
 
+#: What `factorise` retries PARDISO with when its residual check fails, before any other method: NGSolve's
+#: default of up to 16 iterative-refinement steps at every solve (slower solves, but the same factors).
+PARDISO_RETRY_FLAGS: dict[str, Any] = {"refinement": 16}
+
 
 class SolverError(RuntimeError):
-    """A factorisation that failed or whose residual check did not pass."""
+    """A factorisation that failed or whose residual check did not pass (``residual``: NaN if none)."""
+
+    def __init__(self, message: str, residual: float = float("nan")):
+        super().__init__(message)
+        self.residual = residual
 
 
 # ---------------------------------------------------------------------------
@@ -358,6 +367,7 @@ class DirectSolver:
         self.rtol = rtol
         self.residual = float("nan")
         self.factor_seconds = float("nan")
+        self.fallback: dict | None = None   # set by `factorise` when a preferred method failed first
 
         start = time.perf_counter()
         try:
@@ -392,7 +402,8 @@ class DirectSolver:
                 raise SolverError(
                     f"{method}: residual check failed, ||b - A x|| / ||b|| = "
                     f"{self.residual:.3e} >= rtol = {rtol:.1e}"
-                    + ("" if method in PIVOTING_METHODS else " (no pivoting: the matrix is indefinite?)")
+                    + ("" if method in PIVOTING_METHODS else " (no pivoting: the matrix is indefinite?)"),
+                    self.residual,
                 )
 
     def solve(self, rhs, out) -> None:
@@ -411,7 +422,10 @@ class DirectSolver:
 
     def statistics(self) -> dict:
         """What a run records of its solver."""
-        return {"method": self.method, "residual": self.residual, "setup_seconds": self.factor_seconds}
+        stats = {"method": self.method, "residual": self.residual, "setup_seconds": self.factor_seconds}
+        if self.fallback is not None:
+            stats["fallback"] = self.fallback
+        return stats
 
     def __mul__(self, rhs):
         """``solver * r`` is the lazy expression ``solver.inverse * r``."""
@@ -426,15 +440,29 @@ class DirectSolver:
 
 def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None = None) -> DirectSolver:
     """A checked `DirectSolver`: the given ``method``, or else the available methods in order of
-    preference (pivoting ones first), taking the first whose residual check passes. A singular
-    matrix fails them all: the `SolverError` then lists every method's failure."""
+    preference (pivoting ones first), taking the first whose residual check passes; PARDISO is retried with
+    `PARDISO_RETRY_FLAGS` first. A method other than the first is never taken silently: one line on stderr
+    names both methods and the first one's residual, and ``solver.fallback`` (in `statistics`) records it.
+    A singular matrix fails them all: the `SolverError` then lists every method's failure."""
     if method is not None:
         return DirectSolver(matrix, freedofs, method=method)
-    failures = []
+    failures: list[SolverError] = []
     candidates = [m for m in METHODS if m in PIVOTING_METHODS and m in available_methods()]
-    for candidate in candidates:
+    attempts = [(m, None) for m in candidates]
+    if "pardiso" in candidates:
+        attempts.insert(1, ("pardiso", PARDISO_RETRY_FLAGS))
+    for candidate, options in attempts:
         try:
-            return DirectSolver(matrix, freedofs, method=candidate)
+            solver = DirectSolver(matrix, freedofs, method=candidate, options=options)
         except SolverError as error:
-            failures.append(str(error))
-    raise SolverError("no direct solver passed the residual check (is the matrix singular?): " + "; ".join(failures))
+            failures.append(error)
+            continue
+        if failures:
+            first = failures[0]
+            how = candidate + (f" with {options}" if options else "")
+            solver.fallback = {"from": candidates[0], "to": how, "residual": first.residual, "reason": str(first)}
+            print(f"fsivsp: direct solver: {candidates[0]} failed (residual {first.residual:.2e}), "
+                  f"using {how} (residual {solver.residual:.2e})", file=sys.stderr)
+        return solver
+    raise SolverError("no direct solver passed the residual check (is the matrix singular?): "
+                      + "; ".join(map(str, failures)))
