@@ -162,6 +162,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
         "residual": scheme.solver.residual,
         "iterations": solver.get("iterations"),
         "preconditioner": solver.get("preconditioner"),
+        "fallback": solver.get("fallback"),
         "seconds": {
             "assembly": setup - scheme.solver.factor_seconds,
             "factorisation": scheme.solver.factor_seconds,
