@@ -23,7 +23,7 @@ SECTIONS = {
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
     "time": {"T", "dt", "scheme", "theta"},
     "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
-                       "curved"},
+                       "curved", "threads"},
     "exact": {"velocity", "pressure", "displacement"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
@@ -116,6 +116,7 @@ class Discretisation:
     curved: bool = True
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
+    threads: int | None = None   # None: `threads.default_threads`
 
 
 def read_discretisation(table: dict) -> Discretisation:
@@ -137,7 +138,10 @@ def read_discretisation(table: dict) -> Discretisation:
     limit = table.get("max_iterations", MAX_ITERATIONS)
     if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
         raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
-    return Discretisation(family, order, initial, velocity, solver, curved, tolerance, limit)
+    threads = table.get("threads")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise CaseError(f"discretisation.threads: expected a positive whole number, got {threads!r}")
+    return Discretisation(family, order, initial, velocity, solver, curved, tolerance, limit, threads)
 
 
 def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
