@@ -80,12 +80,12 @@ def coarse_inverse(matrix: ngs.BaseMatrix, freedofs: ngs.BitArray) -> ngs.BaseMa
     the next: NGSolve's sparsecholesky on one thread; under more (`threads.using`), where its factors and
     solves vary at round-off, MKL PARDISO (MKL_CBWR), else SuperLU (sequential)."""
     from ..threads import current
-    from .direct import ScipyLUInverse, available_methods
+    from .direct import Flags, ScipyLUInverse, available_methods
 
     if current() == 1:
         return matrix.Inverse(freedofs, inverse="sparsecholesky")
     if "pardiso" in available_methods():
-        return matrix.Inverse(freedofs, inverse="pardiso", flags=ngs.Flags({"symmetric": True}))
+        return matrix.Inverse(freedofs, inverse="pardiso", flags=Flags({"symmetric": True}))
     return ScipyLUInverse(matrix, freedofs)
 
 class _Operator(ngs.BaseMatrix):
