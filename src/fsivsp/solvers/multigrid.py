@@ -78,15 +78,16 @@ def _prolongation(parents: np.ndarray, coarse: int, fine: int, dim: int, free_fi
 def coarse_inverse(matrix: ngs.BaseMatrix, freedofs: ngs.BitArray) -> ngs.BaseMatrix:
     """A factorisation of the SPD ``matrix`` on ``freedofs`` whose solves are bit-identical from one run to
     the next: NGSolve's sparsecholesky on one thread; under more (`threads.using`), where its factors and
-    solves vary at round-off, MKL PARDISO (MKL_CBWR), else SuperLU (sequential)."""
+    solves vary at round-off (and PARDISO's too), UMFPACK, else SuperLU (sequential)."""
     from ..threads import current
-    from .direct import Flags, ScipyLUInverse, available_methods
+    from .direct import ScipyLUInverse, available_methods
 
     if current() == 1:
         return matrix.Inverse(freedofs, inverse="sparsecholesky")
-    if "pardiso" in available_methods():
-        return matrix.Inverse(freedofs, inverse="pardiso", flags=Flags({"symmetric": True}))
+    if "umfpack" in available_methods():
+        return matrix.Inverse(freedofs, inverse="umfpack")
     return ScipyLUInverse(matrix, freedofs)
+
 
 class _Operator(ngs.BaseMatrix):
     """A real BaseMatrix with the shape and vectors of the sparse matrix ``self.shape_of``."""
