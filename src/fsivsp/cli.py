@@ -15,7 +15,7 @@ from .checkpoint import CheckpointError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
-from .threads import default_threads, using
+from .threads import using
 from .timeschemes import SCHEMES
 
 MAX_LEVEL = 6
@@ -157,7 +157,7 @@ def build_parser() -> Parser:
     paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(paper, "the cores of this process, shared among --all's --jobs")
+    threads_option(paper, "1; with --all, shared among its --jobs")
     paper.set_defaults(handler=paper_command)
 
     study = commands.add_parser("study", help="convergence study of a manufactured solution from a case file",
@@ -172,7 +172,7 @@ def build_parser() -> Parser:
     study.add_argument("--json", type=Path, default=None, metavar="PATH",
                        help="write one record per level (per time step with --dt) to PATH")
     study.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(study, "the case's [discretisation] threads, else the cores of this process")
+    threads_option(study, "the case's [discretisation] threads, else 1")
     study.set_defaults(handler=study_command)
 
     run = commands.add_parser("run", help="run a case file: ParaView series, probes, plots, checkpoints",
@@ -182,7 +182,7 @@ def build_parser() -> Parser:
     run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
     run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
-    threads_option(run, "the case's [discretisation] threads, else the cores of this process")
+    threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
@@ -194,7 +194,7 @@ def build_parser() -> Parser:
     matrix.add_argument("--readme", type=Path, default=None, metavar="PATH",
                         help="replace the table between <!-- matrix:begin --> and <!-- matrix:end --> in PATH")
     matrix.add_argument("--quiet", action="store_true", help="no progress bar")
-    threads_option(matrix, "the cores of this process")
+    threads_option(matrix, "1")
     matrix.set_defaults(handler=matrix_command)
     return parser
 
@@ -263,7 +263,7 @@ def paper_command(args) -> int:
             write_json(args.json, records)
         return 0
 
-    threads = args.threads or default_threads()
+    threads = args.threads or args.jobs
     per_job = max(1, threads // args.jobs)   # the processes share the cores with their threads
     jobs = [(dt, level, options, per_job) for dt in TIME_STEPS for level in args.levels]
     jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first

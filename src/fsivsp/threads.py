@@ -3,10 +3,9 @@
     with fsivsp.threads.using(2):
         fsivsp.study(case, range(3))
 
-Default: the cores this process may use (``os.sched_getaffinity``), divided among the MPI ranks of this node.
-Results are bit-identical for a given count (MKL's conditional numerical reproducibility, ``MKL_CBWR``, and
-deterministic coarse solves, `solvers.multigrid.coarse_inverse`); between counts they agree to round-off
-(docs/solvers.md).
+Default for now: one thread (`DEFAULT`), the sequential code, bit-identical from run to run: on more threads
+a run's set-up is not yet reproducible between processes (docs/solvers.md). `default_threads` is the count
+to ask for on this machine: the cores this process may use, divided among the MPI ranks of this node.
 """
 from __future__ import annotations
 
@@ -21,8 +20,8 @@ import ngsolve as ngs
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
-#: MKL's reproducibility branch unless the user sets MKL_CBWR: the fastest code path of this CPU, kept fixed.
-CBWR = "AUTO"
+#: The threads of a run without ``threads``: the cores (`default_threads`) once runs on them are reproducible.
+DEFAULT = 1
 
 
 def default_threads() -> int:
@@ -56,7 +55,6 @@ def _mkl_runtime():
 
 def _set_mkl(threads: int) -> int | None:
     """MKL's threads := ``threads`` (mkl-service or the runtime library); the previous count, None without MKL."""
-    os.environ.setdefault("MKL_CBWR", CBWR)     # read by MKL when it starts
     try:
         import mkl
         previous = mkl.get_max_threads()
@@ -75,9 +73,9 @@ def _set_mkl(threads: int) -> int | None:
 
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
-    """Run the block with ``threads`` threads (None: `default_threads`): NGSolve's TaskManager (not entered
+    """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
     for 1 thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
-    count = default_threads() if threads is None else check(threads, "threads")
+    count = DEFAULT if threads is None else check(threads, "threads")
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
     try:
