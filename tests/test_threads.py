@@ -1,5 +1,6 @@
 """Threads (`fsivsp.threads`): bit-identical runs for a given count, round-off between counts, the option."""
 import hashlib
+import json
 import subprocess
 import sys
 
@@ -57,3 +58,13 @@ def test_check_and_default():
     for bad in (0, True, 1.5, "x"):
         with pytest.raises(ValueError, match="threads"):
             check(bad, "threads")
+
+
+def test_run_reports_its_threads(tmp_path, capsys):
+    from test_run import write_case
+
+    case = write_case(tmp_path, T=0.001, every=20)
+    assert main(["run", str(case), "--out", str(tmp_path / "out"), "--threads", "2"]) == 0
+    assert "on 2 threads" in capsys.readouterr().out
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["threads"] == 2 and "ranks" in summary
