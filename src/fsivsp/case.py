@@ -24,7 +24,7 @@ SECTIONS = {
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
     "time": {"T", "dt", "scheme", "theta"},
     "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
-                       "curved"},
+                       "curved", "threads"},
     "exact": {"velocity", "pressure", "displacement"},
     "solver": {"petsc"},
 }
@@ -118,6 +118,7 @@ class Discretisation:
     curved: bool = True
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
+    threads: int | None = None   # None: `threads.DEFAULT`
     petsc: dict[str, str] = field(default_factory=dict)
 
 
@@ -168,7 +169,10 @@ def read_discretisation(table: dict, solver: dict | None = None) -> Discretisati
     limit = table.get("max_iterations", MAX_ITERATIONS)
     if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
         raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
-    return Discretisation(family, order, initial, velocity, method, curved, tolerance, limit, petsc)
+    threads = table.get("threads")
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise CaseError(f"discretisation.threads: expected a positive whole number, got {threads!r}")
+    return Discretisation(family, order, initial, velocity, method, curved, tolerance, limit, threads, petsc)
 
 
 def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:

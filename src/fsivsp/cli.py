@@ -15,6 +15,7 @@ from .checkpoint import CheckpointError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
+from .threads import using
 from .timeschemes import SCHEMES
 
 MAX_LEVEL = 6
@@ -102,6 +103,12 @@ def scheme_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--theta", type=float, default=None, help="θ of --scheme theta, in [1/2, 1] (default 0.5)")
 
 
+def threads_option(parser: argparse.ArgumentParser, default: str) -> None:
+    """--threads N (`threads.using`; the command enters it when the run starts)."""
+    parser.add_argument("--threads", type=positive_int, default=None, metavar="N",
+                        help=f"threads for assembly, set-up and solves (default: {default})")
+
+
 def chosen_scheme(args, default):
     """The time scheme of --scheme/--theta, or ``default``."""
     from .timeschemes import time_scheme
@@ -151,6 +158,7 @@ def build_parser() -> Parser:
     paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
+    threads_option(paper, "1; with --all, shared among its --jobs")
     paper.set_defaults(handler=paper_command)
 
     study = commands.add_parser("study", help="convergence study of a manufactured solution from a case file",
@@ -166,6 +174,7 @@ def build_parser() -> Parser:
                        help="write one record per level (per time step with --dt) to PATH")
     petsc_argument(study)
     study.add_argument("--quiet", action="store_true", help="no progress bars")
+    threads_option(study, "the case's [discretisation] threads, else 1")
     study.set_defaults(handler=study_command)
 
     run = commands.add_parser("run", help="run a case file: ParaView series, probes, plots, checkpoints",
@@ -175,6 +184,7 @@ def build_parser() -> Parser:
     run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
     run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
@@ -186,6 +196,7 @@ def build_parser() -> Parser:
     matrix.add_argument("--readme", type=Path, default=None, metavar="PATH",
                         help="replace the table between <!-- matrix:begin --> and <!-- matrix:end --> in PATH")
     matrix.add_argument("--quiet", action="store_true", help="no progress bar")
+    threads_option(matrix, "1")
     matrix.set_defaults(handler=matrix_command)
     return parser
 
@@ -235,9 +246,10 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
     from .paper import paper_case
     from .study import run_level
 
-    dt, level, options = job
-    case = paper_case(dt, **options)
-    record = run_level(case, refined(case.coarse_mesh(), level, case.project_refinement), level)
+    dt, level, options, threads = job
+    with using(threads):
+        case = paper_case(dt, **options)
+        record = run_level(case, refined(case.coarse_mesh(), level, case.project_refinement), level)
     record["dt"] = dt
     return record
 
@@ -268,7 +280,8 @@ def paper_command(args) -> int:
     out = args.out or Path("paper-report" if scheme.name == "backward_euler" else f"paper-report-{scheme.name}")
     if not args.all:
         case = paper_case(args.dt, **options)
-        records = study(case, args.levels, quiet=args.quiet)
+        with using(args.threads):
+            records = study(case, args.levels, quiet=args.quiet)
         for r in records:
             r["dt"] = args.dt
         reference = reference_table(args.dt)
@@ -283,10 +296,12 @@ def paper_command(args) -> int:
             write_json(args.json, records)
         return 0
 
-    jobs = [(dt, level, options) for dt in TIME_STEPS for level in args.levels]
+    threads = args.threads or args.jobs
+    per_job = max(1, threads // args.jobs)   # the processes share the cores with their threads
+    jobs = [(dt, level, options, per_job) for dt in TIME_STEPS for level in args.levels]
     jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first
     start = time.perf_counter()
-    results = run_jobs(jobs, args.jobs, args.quiet)
+    results = run_jobs(jobs, min(args.jobs, threads), args.quiet)
     wall = time.perf_counter() - start
     series, references = {}, {}
     lines = ["# fsivsp: the experiment of Section 5.3", "",
@@ -316,13 +331,21 @@ def paper_command(args) -> int:
 
 def study_command(args) -> int:
     from .case import load_study_case, to_study
-    from .report import error_table, rate_table, time_table, write_json
-    from .study import study, time_study
 
-    case = to_study(load_study_case(args.case))
+    case_file = load_study_case(args.case)
+    case = to_study(case_file)
     distributed_check("study", case.solver, case.initial_velocity)
     case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme),
                    petsc_options={**case.petsc_options, **args.petsc_options})
+    with using(args.threads or case_file.discretisation.threads):
+        return study_records(args, case)
+
+
+def study_records(args, case) -> int:
+    """`study_command` once the case is read: the study, its tables and JSON."""
+    from .report import error_table, rate_table, time_table, write_json
+    from .study import study, time_study
+
     element = f"{case.family}{'' if case.family == 'mini' else case.order}"
     if args.dt is not None:
         records = time_study(case, args.level, args.dt, quiet=args.quiet)
@@ -344,7 +367,8 @@ def run_command(args) -> int:
     case = parallel.shared_case(load_run_case, args.case)
     out = args.out or Path(args.case.stem)
     try:
-        summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
+        with using(args.threads or case.discretisation.threads) as threads:
+            summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
     except (SolveDiverged, NotConverged) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
@@ -355,17 +379,24 @@ def run_command(args) -> int:
             print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
         return 130
     if not args.quiet:
-        print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g}; results in {out}")
+        print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
+              f"thread{'s' * (threads > 1)}; results in {out}")
     return 0
 
 
 def matrix_command(args) -> int:
+    distributed_check("matrix", None, "interpolation", "the verification matrix")
+    with using(args.threads):
+        return matrix_table(args)
+
+
+def matrix_table(args) -> int:
+    """`matrix_command` under its threads: the entries, the table and its files."""
     from tqdm.auto import tqdm
 
     from .report import write_atomic, write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 
-    distributed_check("matrix", None, "interpolation", "the verification matrix")
     entries = [e for e in TABLE if args.slow or not e.slow]
     time_entries = [e for e in TIME_TABLE if args.slow or not e.slow]
     results, time_results, records = [], [], []

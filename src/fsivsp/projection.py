@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from ngsolve.krylovspace import CGSolver
 
 from .solvers import NotConverged, to_ngsolve, to_scipy_csr
-from .solvers.multigrid import Multigrid, TwoLevel, bits, has_hierarchy, vertex_gather, vertex_levels
+from .solvers.multigrid import Multigrid, coarse_inverse, TwoLevel, bits, has_hierarchy, vertex_gather, vertex_levels
 
 #: Used dofs above which G is not factorised (CG instead, if the mesh has a refinement hierarchy). On level 4 of the
 #: 3D fluid ball (MINI, 190 000 dofs in one velocity component's norm) CG took 55 s and 0.35 GB where the Cholesky
@@ -59,7 +59,7 @@ def _cholesky(gram: ngs.BaseMatrix, used: np.ndarray, singular: bool) -> Solve:
     if singular:
         csr = to_scipy_csr(gram)
         factorised = to_ngsolve(csr + SINGULAR_SHIFT * sp.diags(csr.diagonal()))
-    inverse = factorised.Inverse(bits(used), inverse="sparsecholesky")
+    inverse = coarse_inverse(factorised, bits(used))
 
     def solve(load: ngs.BaseVector, out: ngs.BaseVector) -> None:
         out.data = inverse * load

@@ -247,6 +247,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
     from .solvers import NotConverged
     from .spaces import global_count
+    from .threads import current as current_threads
 
     if parallel.distributed():
         check_distributed(case)
@@ -300,6 +301,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                         "total": clock.perf_counter() - started},
             "peak_memory_bytes": max(memory),
             "ranks": {"size": len(memory), "peak_memory_bytes": memory},
+            "threads": current_threads(),
             "resumed_from": resumed_from,
             "energy": history,
             "l2_norms": l2_norms(scheme),

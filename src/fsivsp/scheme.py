@@ -29,6 +29,7 @@ from .manufactured import grad
 from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
+from .threads import current as current_threads
 from .timeschemes import BDF2, Theta
 
 
@@ -322,8 +323,9 @@ class Scheme:
         thread) and the part of the next right-hand side without vⁿ⁺¹ (`_lagged_data`).
         Between two solves only the product R vⁿ⁺¹ is left. ``observe`` must not step
         the scheme. The results equal `step` repeated up to round-off (7e-14 relative after 100 steps of the
-        paper's experiment, level 4). Under NGSolve's TaskManager the two threads compete for its workers:
-        `step` is faster there (100 steps at 17 931 unknowns: 0.33 s against 0.43 s). A start step with
+        paper's experiment, level 4). Only on one thread (`threads.using`): under NGSolve's TaskManager the two
+        threads compete for its workers and `step` is faster (100 steps at 17 931 unknowns: 0.33 s against
+        0.43 s). A start step with
         another τ (BDF2's first) is taken by `step`."""
         while steps > 0 and self.time_scheme.start(self.n).tau(self.dt) != self.tau:
             self.step()
@@ -332,7 +334,7 @@ class Scheme:
                 observe(self)
         if steps <= 0:
             return
-        if not self.solver.overlap or self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS:
+        if not self.solver.overlap or self.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS or current_threads() > 1:
             for _ in range(steps):
                 self.step()
                 if observe is not None:

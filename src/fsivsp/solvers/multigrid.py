@@ -74,6 +74,21 @@ def _prolongation(parents: np.ndarray, coarse: int, fine: int, dim: int, free_fi
     return ngs.la.SparseMatrixd.CreateFromCOO(rows[keep], cols[keep], vals[keep], dim * fine, dim * coarse)
 
 
+
+def coarse_inverse(matrix: ngs.BaseMatrix, freedofs: ngs.BitArray) -> ngs.BaseMatrix:
+    """A factorisation of the SPD ``matrix`` on ``freedofs`` whose solves are bit-identical from one run to
+    the next: NGSolve's sparsecholesky on one thread; under more (`threads.using`), where its factors and
+    solves vary at round-off (and PARDISO's too), UMFPACK, else SuperLU (sequential)."""
+    from ..threads import current
+    from .direct import ScipyLUInverse, available_methods
+
+    if current() == 1:
+        return matrix.Inverse(freedofs, inverse="sparsecholesky")
+    if "umfpack" in available_methods():
+        return matrix.Inverse(freedofs, inverse="umfpack")
+    return ScipyLUInverse(matrix, freedofs)
+
+
 class _Operator(ngs.BaseMatrix):
     """A real BaseMatrix with the shape and vectors of the sparse matrix ``self.shape_of``."""
 
@@ -160,7 +175,7 @@ class Multigrid(_Operator):
             self.frees.append(bits(free_coarse))
         self.smoothers = [GaussSeidel(a, np.fromiter(f, dtype=bool, count=a.height))
                           for a, f in zip(self.matrices[:-1], self.frees[:-1])]
-        self.coarse = self.matrices[-1].Inverse(self.frees[-1], inverse="sparsecholesky")
+        self.coarse = coarse_inverse(self.matrices[-1], self.frees[-1])
         self.levels = len(self.matrices)
         #: per level: its right-hand side and solution (the level above fills them) and its own residual
         self._vectors = [(a.CreateColVector(), a.CreateColVector(), a.CreateColVector()) for a in self.matrices]

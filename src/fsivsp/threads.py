@@ -1,0 +1,87 @@
+"""How many threads a run uses: NGSolve's TaskManager and MKL (PARDISO), set when a run starts.
+
+    with fsivsp.threads.using(2):
+        fsivsp.study(case, range(3))
+
+Default for now: one thread (`DEFAULT`), the sequential code, bit-identical from run to run: on more threads
+a run's set-up is not yet reproducible between processes (docs/solvers.md). `default_threads` is the count
+to ask for on this machine: the cores this process may use, divided among the MPI ranks of this node.
+"""
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import sys
+from pathlib import Path
+from typing import Iterator
+
+import ngsolve as ngs
+
+#: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
+LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
+#: The threads of a run without ``threads``: the cores (`default_threads`) once runs on them are reproducible.
+DEFAULT = 1
+
+
+def default_threads() -> int:
+    """The cores this process may use divided among the ranks on this node, at least 1."""
+    cores = len(os.sched_getaffinity(0))
+    local = next((int(os.environ[v]) for v in LOCAL_SIZE_VARIABLES if os.environ.get(v, "").isdigit()), 1)
+    return max(1, cores // max(local, 1))
+
+
+def check(value, where: str) -> int:
+    """``value`` as a thread count (a whole number ≥ 1), else ValueError naming ``where``."""
+    if isinstance(value, bool) or not (isinstance(value, int) or (isinstance(value, str) and value.strip().isdigit())) \
+            or int(value) < 1:
+        raise ValueError(f"{where}: expected a positive whole number of threads, got {value!r}")
+    return int(value)
+
+
+def current() -> int:
+    """The number of NGSolve threads of the running code (`using` sets it)."""
+    from pyngcore import GetNumThreads
+    return GetNumThreads()
+
+
+def _mkl_runtime():
+    """MKL's runtime library (the one NGSolve's PARDISO loads), or None."""
+    for name in ("libmkl_rt.so.3", "libmkl_rt.so.2", "libmkl_rt.so", str(Path(sys.prefix) / "lib" / "libmkl_rt.so.3")):
+        with contextlib.suppress(OSError):
+            return ctypes.CDLL(name)
+    return None
+
+
+def _set_mkl(threads: int) -> int | None:
+    """MKL's threads := ``threads`` (mkl-service or the runtime library); the previous count, None without MKL."""
+    try:
+        import mkl
+        previous = mkl.get_max_threads()
+        mkl.set_num_threads(threads)
+        return previous
+    except ImportError:
+        pass
+    runtime = _mkl_runtime()
+    if runtime is None:
+        os.environ["MKL_NUM_THREADS"] = str(threads)
+        return None
+    previous = runtime.MKL_Get_Max_Threads()
+    runtime.MKL_Set_Num_Threads(threads)
+    return previous
+
+
+@contextlib.contextmanager
+def using(threads: int | None = None) -> Iterator[int]:
+    """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
+    for 1 thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
+    count = DEFAULT if threads is None else check(threads, "threads")
+    before, mkl_before = current(), _set_mkl(count)
+    ngs.SetNumThreads(count)
+    try:
+        with ngs.TaskManager() if count > 1 else contextlib.nullcontext():
+            yield count
+    finally:
+        ngs.SetNumThreads(before)
+        if mkl_before is not None:
+            _set_mkl(mkl_before)
