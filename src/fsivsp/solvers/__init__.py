@@ -9,9 +9,9 @@
   taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
 
 `step_solver` picks one by name: ``"auto"`` (the default) takes the direct solver below
-`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and PETSc above (the NGSolve-native iterative solver where
-petsc4py does not import); ``"direct"`` the fastest safe direct method; ``"iterative"``; ``"petsc"``; or a
-direct method by name (`METHODS`).
+`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above (PETSc's is not yet faster
+there: docs/solvers.md, "PETSc"); ``"direct"`` the fastest safe direct method; ``"iterative"``; ``"petsc"``;
+or a direct method by name (`METHODS`).
 """
 from __future__ import annotations
 
@@ -56,17 +56,6 @@ class StepSolver(Protocol):
     def statistics(self) -> dict: ...
 
 
-def auto_solver(spaces) -> str:
-    """What ``"auto"`` takes for these spaces: the direct solver below `AUTO_ITERATIVE_DOFS`, above it PETSc where
-    petsc4py imports (on level 3 of the 3D fluid ball 0.31 s per step against 0.49 s for ``"iterative"``,
-    docs/solvers.md), else ``"iterative"``."""
-    if spaces.free_dofs() < AUTO_ITERATIVE_DOFS[spaces.mesh.dim]:
-        return "direct"
-    from .petsc import available
-
-    return "iterative" if available() else "petsc"
-
-
 def solver_names() -> list[str]:
     """The names `step_solver` accepts here."""
     return ["auto", "direct", "iterative", "petsc", *available_methods()]
@@ -82,7 +71,7 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     if isinstance(matrix, ngs.la.ParallelMatrix):  # a distributed mesh (mpirun)
         return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
     if name == "auto":
-        name = auto_solver(spaces)
+        name = "iterative" if spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim] else "direct"
     if name == "iterative":
         return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
     if name == "petsc":
