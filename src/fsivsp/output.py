@@ -16,18 +16,21 @@ good one was (the VTK series, the ``.pvd`` collection, the CSV files, the plots)
 """
 from __future__ import annotations
 
+import json
 import math
 import os
-import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 import ngsolve as ngs
 
-from . import parallel
-from .geometry import FLUID
-from .report import write_atomic, write_json
+from . import atomic, parallel
+from .case import CaseError
+from .geometry import FLUID, SOLID
+
+#: ``region`` values in the VTU files (point and cell data, for ParaView's Threshold)
+REGIONS = {FLUID: 0, SOLID: 1}
 
 # -- VTK --------------------------------------------------------------------------------
 
@@ -35,6 +38,16 @@ from .report import write_atomic, write_json
 def _components(tensor: ngs.CoefficientFunction, dim: int) -> ngs.CoefficientFunction:
     """A d×d matrix as the row-major vector (σ_11, σ_12, …, σ_dd)."""
     return ngs.CF(tuple(tensor[i, j] for i in range(dim) for j in range(dim)))
+
+
+#: ParaView's symmetric-tensor order XX, YY, ZZ, XY, YZ, XZ as (row, column) pairs
+SYMMETRIC = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+
+
+def symmetric_tensor(tensor: ngs.CoefficientFunction, dim: int) -> ngs.CoefficientFunction:
+    """A symmetric d×d matrix as ParaView's 6-component tensor (XX, YY, ZZ, XY, YZ, XZ); in 2D the
+    z components are 0 (the in-plane stress)."""
+    return ngs.CF(tuple(tensor[i, j] if i < dim and j < dim else 0 for i, j in SYMMETRIC))
 
 
 class SolidStress:
@@ -72,19 +85,28 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
     """The fields of a `Scheme` for `VTKSeries`, and the `SolidStress` to refresh before writing.
 
     ``velocity`` (d components), ``pressure`` (the fluid pressure, 0 in the solid),
-    ``stress`` (the solid stress σ as d·d row-major components, 0 in the fluid),
-    ``von_mises`` (see `von_mises`, 0 in the fluid) and ``displacement`` (d components, 0 in the fluid).
+    ``stress`` (the solid stress σ as ParaView's symmetric tensor XX YY ZZ XY YZ XZ, 0 in the fluid),
+    ``von_mises`` (see `von_mises`, 0 in the fluid), ``displacement`` (the solid displacement, d components,
+    0 in the fluid: the scheme's integrated velocity there is no displacement) and ``region`` (0 fluid, 1 solid).
     """
-    dim = scheme.spaces.mesh.dim
+    mesh = scheme.spaces.mesh
+    dim = mesh.dim
     stress = SolidStress(scheme)
+    sigma = ngs.CF(stress.values, dims=(dim, dim))
     fields = {
         "velocity": scheme.velocity,
         "pressure": scheme.pressure,
-        "stress": stress.values,
-        "von_mises": von_mises(ngs.CF(stress.values, dims=(dim, dim)), scheme.materials, dim),
-        "displacement": scheme.displacement,
+        "stress": symmetric_tensor(sigma, dim),
+        "von_mises": von_mises(sigma, scheme.materials, dim),
+        "displacement": mesh.MaterialCF({SOLID: 1}, default=0) * scheme.displacement,
+        "region": region_cf(mesh),
     }
     return fields, stress
+
+
+def region_cf(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+    """0 in the fluid, 1 in the solid (`REGIONS`)."""
+    return mesh.MaterialCF(dict(REGIONS), default=-1)
 
 
 def _pvd(entries: list[tuple[float, str]]) -> str:
@@ -110,12 +132,14 @@ class VTKSeries:
     """
 
     def __init__(self, directory: str | Path, mesh: ngs.Mesh, fields: dict[str, ngs.CoefficientFunction],
-                 name: str = "fields", subdivision: int = 0, refresh=None):
-        """``refresh``, if given, is called before every write (see `SolidStress`)."""
+                 name: str = "fields", subdivision: int = 0, refresh=None, continuous: bool = False):
+        """``refresh``, if given, is called before every write (see `SolidStress`); ``continuous``: one point
+        per mesh vertex instead of VTKOutput's copy per cell (see `postprocess`)."""
         if not fields:
             raise ValueError("fields: expected at least one field to write")
         self.directory, self.mesh, self.name = Path(directory), mesh, name
         self.fields, self.subdivision, self.refresh = dict(fields), subdivision, refresh
+        self.continuous = continuous
         self._entries: list[tuple[float, str]] = []
 
     @property
@@ -143,28 +167,30 @@ class VTKSeries:
         if parallel.distributed():
             return self._write_pieces(time, step)
         final = self.directory / self.filename(step)
-        fd, reserved = tempfile.mkstemp(dir=self.directory, prefix=f".{final.stem}.", suffix=".tmp")
-        os.close(fd)
-        base = Path(reserved)
-        written = base.with_name(base.name + ".vtu")  # VTKOutput appends the extension
-        try:
-            output = ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields),
-                                   filename=str(base), subdivision=self.subdivision)
-            output.Do()
-            if not written.is_file():
-                raise RuntimeError(f"VTKOutput did not write {written.name}")
-            os.replace(written, final)
-        finally:
-            written.unlink(missing_ok=True)
-            base.unlink(missing_ok=True)
+        with atomic.replacing(final) as tmp:
+            self._vtk(tmp)
         self._add(time, [final.name])
         return final
+
+    def _vtk(self, path: Path) -> None:
+        """VTKOutput into ``path`` (it appends ``.vtu``; moved back to ``path``), then `postprocess`."""
+        written = path.with_name(path.name + ".vtu")
+        try:
+            ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields),
+                          filename=str(path), subdivision=self.subdivision).Do()
+            if not written.is_file():
+                raise RuntimeError(f"VTKOutput did not write {written.name}")
+            os.replace(written, path)
+        finally:
+            written.unlink(missing_ok=True)
+        if "region" in self.fields:
+            postprocess(path, self.continuous)
 
     def _add(self, time: float, names: list[str]) -> None:
         """Enter the files of ``time`` into the collection (rank 0 writes it)."""
         entries = [(t, n) for t, n in self._entries if n not in names and t < time] + [(float(time), n) for n in names]
         if parallel.is_root():
-            write_atomic(self.pvd, _pvd(entries))
+            atomic.write_text(self.pvd, _pvd(entries))
         self._entries = entries
 
     def _write_pieces(self, time: float, step: int) -> Path:
@@ -175,21 +201,100 @@ class VTKSeries:
                       subdivision=self.subdivision).Do()
         if parallel.is_root():
             base.with_suffix(".pvd").unlink(missing_ok=True)
+        elif "region" in self.fields:
+            piece = base.with_name(f"{base.name}_proc{parallel.rank()}.vtu")
+            with atomic.replacing(piece) as tmp:
+                os.replace(piece, tmp)
+                postprocess(tmp, self.continuous)
         names = [f"{base.name}_proc{r}.vtu" for r in range(1, parallel.size())]
         self._add(time, names)
         return self.directory / names[0]
 
 
+def postprocess(path: Path, continuous: bool = False) -> None:
+    """Rewrite a VTKOutput file (point data per cell copy, with a ``region`` field) with meshio: ``region`` also as
+    cell data; with ``continuous``, the points merged to one per location, each field's value there the mean over
+    the copies in the cells where the field lives (pressure: fluid; stress, von_mises, displacement: solid)."""
+    import meshio
+
+    data = meshio.read(path, file_format="vtu")
+    cells = data.cells[0].data
+    point_region = np.asarray(data.point_data["region"]).reshape(-1)
+    cell_region = point_region[cells[:, 0]].astype(np.int32)
+    points, point_data = data.points, dict(data.point_data)
+    if continuous:
+        points, cells, point_data = _merge(points, cells, point_data, cell_region)
+    meshio.write(path, meshio.Mesh(points, [(data.cells[0].type, cells)], point_data=point_data,
+                                   cell_data={"region": [cell_region]}), file_format="vtu")
+
+
+#: the region a field lives in (its value at an interface point comes from there); others: every cell
+HOME = {"pressure": REGIONS[FLUID], "stress": REGIONS[SOLID], "von_mises": REGIONS[SOLID],
+        "displacement": REGIONS[SOLID]}
+
+
+def _merge(points, cells, point_data, cell_region):
+    scale = max(float(np.ptp(points, axis=0).max()), 1.0)
+    keys = np.round(points / scale * 1e9).astype(np.int64)
+    unique, first, index = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    index = index.reshape(-1)
+    copy_region = np.empty(len(points), dtype=np.int32)
+    copy_region[cells.reshape(-1)] = np.repeat(cell_region, cells.shape[1])
+    merged = {}
+    for name, values in point_data.items():
+        values = np.asarray(values, dtype=float)
+        flat = values.reshape(len(points), -1)
+        home = HOME.get(name)
+        weight = np.ones(len(points)) if home is None else (copy_region == home).astype(float)
+        total = np.zeros((len(unique), flat.shape[1]))
+        np.add.at(total, index, flat * weight[:, None])
+        count = np.zeros(len(unique))
+        np.add.at(count, index, weight)
+        mean = total / np.maximum(count, 1)[:, None]
+        merged[name] = mean.reshape((len(unique),) + values.shape[1:])
+    merged["region"] = np.asarray(merged["region"]).round()
+    return points[first], index[cells], merged
+
+
 # -- probes ---------------------------------------------------------------------------
+
+
+def bounding_box(mesh: ngs.Mesh) -> str:
+    """The (global, under MPI) bounding box of the mesh's vertices, e.g. ``[0, 2.5] × [0, 0.41]``."""
+    points = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
+    low = np.min(np.array(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf))), axis=0)
+    high = np.max(np.array(parallel.gather(points.max(axis=0) if len(points) else np.full(mesh.dim, -np.inf))), axis=0)
+    return " × ".join(f"[{a:g}, {b:g}]" for a, b in zip(low, high))
+
+
+def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray) -> np.ndarray:
+    """``coords`` with every point that the mesh search puts in a solid cell but that lies on a fluid cell's
+    boundary (a point on Γ) moved by 1e-9 of the mesh's size into that fluid cell, where the pressure lives."""
+    located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
+    solid = [i for i, nr in enumerate(located["nr"]) if nr >= 0 and mesh[ngs.ElementId(ngs.VOL, int(nr))].mat != FLUID]
+    if not solid:
+        return coords
+    points = np.array([v.point for v in mesh.vertices], dtype=float)
+    step = 1e-9 * max(float(np.ptp(points, axis=0).max()), 1.0)
+    coords = coords.copy()
+    directions = [np.array(c, float) - 1 for c in np.ndindex(*(3,) * coords.shape[1]) if any(np.array(c) != 1)]
+    for i in solid:
+        for d in directions:
+            trial = coords[i] + step * d
+            found = mesh(*trial)
+            if found.nr >= 0 and mesh[ngs.ElementId(ngs.VOL, found.nr)].mat == FLUID:
+                coords[i] = trial
+                break
+    return coords
 
 
 class Probes:
     """Velocity and pressure at points, and along straight lines, over time.
 
     ``points``: coordinates (x, y[, z]); ``lines``: (start, end, n) with n ≥ 2 equispaced
-    samples from start to end inclusive. Every point must lie in the mesh (ValueError
-    otherwise). The pressure is NaN at points whose containing cell is not a fluid cell
-    (a point on Γ counts as fluid only if the mesh search returns a fluid cell).
+    samples from start to end inclusive. Every point must lie in the mesh (`CaseError`, one line with the
+    mesh's bounding box, otherwise). The pressure is NaN at points in the solid; a point on Γ is evaluated
+    from the fluid side.
     """
 
     def __init__(self, mesh: ngs.Mesh, points=(), lines=()):
@@ -228,16 +333,19 @@ class Probes:
     @staticmethod
     def _locate(mesh: ngs.Mesh, coords: np.ndarray, label: str):
         """The points this process evaluates (on a distributed mesh, MPI: those of its part that no lower rank
-        has) with their mask among all points, and whether each is in a fluid cell."""
+        has) with their mask among all points, and whether each is in a fluid cell. A point outside the mesh is a
+        one-line `CaseError` with the mesh's bounding box; a point on Γ is evaluated in a fluid cell (`_fluid_side`)."""
         if not len(coords):
             return (None, np.zeros(0, dtype=bool)), np.zeros(0, dtype=bool)
+        coords = _fluid_side(mesh, coords)
         located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
         owner = parallel.owners(located["nr"] >= 0)
         outside = np.flatnonzero(owner < 0)
         if len(outside):
             i = int(outside[0])
             where = ", ".join(f"{c:g}" for c in coords[i])
-            raise ValueError(f"{label.format(i)} at ({where}) is outside the mesh")
+            raise CaseError(f"{label.format(i)} at ({where}) is outside the mesh; expected a point in its "
+                            f"bounding box {bounding_box(mesh)}")
         mine = owner == parallel.rank()
         fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"][mine]])
         return (located[mine], mine), fluid
@@ -296,7 +404,7 @@ class Probes:
         paths = directory / "probes.csv", directory / "lines.csv"
         for path, columns, rows in zip(paths, (self.probe_columns, self.line_columns),
                                        (self.probe_rows, self.line_rows)):
-            write_atomic(path, _csv(columns, rows))
+            atomic.write_text(path, _csv(columns, rows))
         return paths
 
     # -- checkpoints --------------------------------------------------------------
@@ -341,16 +449,10 @@ def _save(fig, path: str | Path) -> None:
     import matplotlib.pyplot as plt
 
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fmt = path.suffix[1:].lower() or "png"
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
-        with os.fdopen(fd, "wb") as handle:
-            fig.savefig(handle, format=fmt, dpi=120)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        with atomic.replacing(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=120)
     finally:
         plt.close(fig)
 
@@ -369,10 +471,14 @@ def energy_plot(times, energies, path: str | Path) -> None:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6, 3.6), constrained_layout=True)
     ax.plot(times, energies, "-", marker="." if len(times) < 60 else None)
-    ax.set_xlabel("time")
-    ax.set_ylabel("energy")
+    ax.set_xlabel("time t")
+    ax.set_ylabel("E(t)")
+    ax.set_title("discrete energy ½∫ρ|v|² + ½∫_S Aσ:σ (Scheme.energy)", fontsize=9)
     ax.grid(True, alpha=0.3)
     _save(fig, path)
+
+
+LABELS = {"v1": "velocity v1", "v2": "velocity v2", "v3": "velocity v3", "p": "fluid pressure p"}
 
 
 def probe_plot(probes: Probes, path: str | Path) -> None:
@@ -386,14 +492,39 @@ def probe_plot(probes: Probes, path: str | Path) -> None:
         for ax, name in zip(axes, names):
             ax.plot(data["time"], data[name], label=label)
     for ax, name in zip(axes, names):
-        ax.set_title(name)
-        ax.set_xlabel("time")
+        ax.set_title(LABELS[name])
+        ax.set_xlabel("time t")
+        ax.set_ylabel(name)
         ax.grid(True, alpha=0.3)
     if len(probes.points):
         axes[0].legend(fontsize=7)
+    fig.suptitle("point probes (probes.csv); units those of the case file", fontsize=10)
+    _save(fig, path)
+
+
+def line_plot(probes: Probes, path: str | Path) -> None:
+    """Velocity components and pressure along every line probe at its last recorded time (lines.csv)."""
+    plt = _pyplot()
+    names = [f"v{k + 1}" for k in range(probes.dim)] + ["p"]
+    columns = probes.line_columns
+    table = np.array(probes.line_rows, dtype=float).reshape(-1, len(columns))
+    fig, axes = plt.subplots(1, len(names), figsize=(4 * len(names), 3.4), constrained_layout=True)
+    time = table[:, 1].max() if len(table) else 0.0
+    for i, (start, end, _) in enumerate(probes.lines):
+        rows = table[(table[:, 2] == i) & (table[:, 1] == time)]
+        label = "line {} ({}) → ({})".format(i, ", ".join(f"{c:g}" for c in start), ", ".join(f"{c:g}" for c in end))
+        for ax, name in zip(axes, names):
+            ax.plot(rows[:, 3], rows[:, columns.index(name)], ".-", label=label)
+    for ax, name in zip(axes, names):
+        ax.set_title(LABELS[name])
+        ax.set_xlabel("arc length s from the line's start")
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"line probes at t = {time:g} (lines.csv); units those of the case file", fontsize=10)
     _save(fig, path)
 
 
 def write_summary(path: str | Path, data: dict) -> None:
-    """A JSON summary of a run (atomic, via `report.write_json`)."""
-    write_json(path, data)
+    """A JSON summary of a run (atomic, with the umask's modes)."""
+    atomic.write_text(path, json.dumps(data, indent=2) + "\n")
