@@ -120,7 +120,9 @@ def test_errors_equal_serial(tmp_path, command):
      "error: boundary.nowhere: no boundary of that name"),
     ('family = "mini"', 'family = "mini"\nsolver = "direct"', [],
      "error: discretisation.solver: 'direct' does not run under mpirun"),
-], ids=["boundary", "direct-solver"])
+    ("probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]", "probes = [[0.5, 0.0], [10.0, 0.0]]", [],
+     "error: probe 1 at (10, 0) is outside the mesh; expected a point in its bounding box"),
+], ids=["boundary", "direct-solver", "probe-outside"])
 def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     """Exit 2 (mpirun's code: every rank's), the error printed once, no rank left running (the timeout)."""
     case = tmp_path / "case.toml"
@@ -130,6 +132,17 @@ def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(ours) == 1 and ours[0].startswith(message), done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_probe_outside_the_mesh_serial(tmp_path, capsys):
+    """The same probe serially: one line naming it and the mesh's bounding box, exit 2."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]",
+                                                       "probes = [[0.5, 0.0], [10.0, 0.0]]"))
+    assert main(["run", str(case), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: probe 1 at (10, 0) is outside the mesh; expected a point in "
+                                               "its bounding box ["), err
 
 
 @needs_mpi

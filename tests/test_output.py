@@ -14,7 +14,7 @@ from fsivsp.output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fie
 
 meshio = pytest.importorskip("meshio")
 
-FIELDS = {"velocity", "pressure", "stress", "von_mises", "displacement"}
+FIELDS = {"velocity", "pressure", "stress", "von_mises", "displacement", "region"}
 
 
 @pytest.fixture(scope="module")
@@ -62,13 +62,15 @@ def test_vtk_series_fields_points_and_collection(tmp_path, scheme, mesh):
         assert data.points.shape == (points, 3)
         assert set(data.point_data) == FIELDS
         shapes = {name: values.reshape(points, -1).shape[1] for name, values in data.point_data.items()}
-        assert shapes == {"velocity": 2, "pressure": 1, "stress": 4, "von_mises": 1, "displacement": 2}
+        assert shapes == {"velocity": 2, "pressure": 1, "stress": 6, "von_mises": 1, "displacement": 2, "region": 1}
 
     # the last file holds the current state: velocity at the written points, von Mises from σ
     located = mesh(data.points[:, 0], data.points[:, 1])
     assert np.allclose(data.point_data["velocity"], scheme.velocity(located), atol=1e-12)
-    s = data.point_data["stress"].reshape(-1, 2, 2)
-    assert np.allclose(s[:, 0, 1], s[:, 1, 0])
+    # ParaView's symmetric tensor: XX YY ZZ XY YZ XZ, the z components zero in 2D
+    xx, yy, zz0, xy, yz, xz = data.point_data["stress"].reshape(-1, 6).T
+    assert np.abs(zz0).max() == 0 and np.abs(yz).max() == 0 and np.abs(xz).max() == 0
+    s = np.stack([np.stack([xx, xy], -1), np.stack([xy, yy], -1)], -2)
     lam, mu = scheme.materials.lam, scheme.materials.mu
     zz = lam / (2 * (lam + mu)) * (s[:, 0, 0] + s[:, 1, 1])
     full = np.zeros((len(s), 3, 3))
@@ -77,6 +79,37 @@ def test_vtk_series_fields_points_and_collection(tmp_path, scheme, mesh):
     expected = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
     assert np.abs(s).max() > 0
     assert np.allclose(data.point_data["von_mises"].ravel(), expected, atol=1e-10)
+    # the region array (fluid 0, solid 1) per cell, and the displacement only in the solid
+    region = data.cell_data["region"][0].ravel()
+    assert set(np.unique(region)) == {0, 1}
+    fluid_points = np.flatnonzero(data.point_data["region"].ravel() == 0)
+    assert np.abs(data.point_data["displacement"][fluid_points]).max() == 0
+    assert np.abs(data.point_data["displacement"]).max() > 0
+
+
+def test_continuous_output_shares_vertices(tmp_path, scheme, mesh):
+    """``continuous=True``: one point per vertex."""
+    fields, stress = scheme_fields(scheme)
+    series = VTKSeries(tmp_path, mesh, fields, refresh=stress, continuous=True)
+    scheme.step()
+    series.write(scheme.time, scheme.n)
+    data = meshio.read(tmp_path / "fields_000001.vtu")
+    assert data.points.shape == (mesh.nv, 3)
+    assert set(data.point_data) == FIELDS
+
+
+def test_files_follow_the_umask(tmp_path, scheme, mesh):
+    """The PVD and the VTU pieces get the umask's modes (0644 under 022), not mkstemp's 0600."""
+    import os
+    old = os.umask(0o022)
+    try:
+        series = VTKSeries(tmp_path, mesh, {"velocity": scheme.velocity})
+        scheme.step()
+        series.write(scheme.time, scheme.n)
+    finally:
+        os.umask(old)
+    for name in ("fields.pvd", "fields_000001.vtu"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o644, name
 
 
 def test_vtk_series_restore_continues_and_truncates(tmp_path, scheme, mesh):
@@ -173,9 +206,10 @@ def test_probes_csv(tmp_path, scheme, mesh):
 
 
 def test_probe_outside_mesh(mesh):
-    with pytest.raises(ValueError, match=r"^probe 1 at \(3, 0\.2\) is outside the mesh$"):
+    box = r"; expected a point in its bounding box \[0, 2\.5\] × \[0, 0\.41\]$"
+    with pytest.raises(ValueError, match=r"^probe 1 at \(3, 0\.2\) is outside the mesh" + box):
         Probes(mesh, points=[(0.2, 0.2), (3.0, 0.2)])
-    with pytest.raises(ValueError, match=r"^line 0 point 3 at \(2\.75, 0\.2\) is outside the mesh$"):
+    with pytest.raises(ValueError, match=r"^line 0 point 3 at \(2\.75, 0\.2\) is outside the mesh" + box):
         Probes(mesh, lines=[((2.0, 0.2), (3.0, 0.2), 5)])
     with pytest.raises(ValueError, match="probe 0: expected 2 finite coordinates"):
         Probes(mesh, points=[(0.2, 0.2, 0.0)])

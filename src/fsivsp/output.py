@@ -264,7 +264,9 @@ def bounding_box(mesh: ngs.Mesh) -> str:
     points = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
     low = np.min(np.array(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf))), axis=0)
     high = np.max(np.array(parallel.gather(points.max(axis=0) if len(points) else np.full(mesh.dim, -np.inf))), axis=0)
-    return " × ".join(f"[{a:g}, {b:g}]" for a, b in zip(low, high))
+    size = max(b - a for a, b in zip(low, high))
+    tidy = lambda x: 0.0 if abs(x) < 1e-12 * size else x  # noqa: E731 (round-off of a vertex at 0)
+    return " × ".join(f"[{tidy(a):g}, {tidy(b):g}]" for a, b in zip(low, high))
 
 
 def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray) -> np.ndarray:
