@@ -38,6 +38,7 @@ COMMANDS = {
     "fsivsp paper --dt 1e-3 --levels 2 --json out.json": PARSE,
     "fsivsp paper --all --out paper-report": PARSE,
     "fsivsp paper --dt 1e-2 --initial-stress projection --project": PARSE,
+    'fsivsp paper --levels 0-2 --solver petsc --petsc-options "-ksp_type gmres -ksp_gmres_restart 50"': RUN,
 }
 
 

@@ -71,7 +71,8 @@ def test_run_writes_series_probes_plots_and_summary(tmp_path):
     files = sorted((out / "vtk").glob("fields_*.vtu"))
     assert len(files) == 5 and pvd.count("<DataSet") == 5 and 'timestep="0.002' in pvd
     mesh = meshio.read(files[-1])
-    for name, width in {"velocity": 2, "pressure": 1, "stress": 4, "von_mises": 1, "displacement": 2}.items():
+    for name, width in {"velocity": 2, "pressure": 1, "stress": 6, "von_mises": 1, "displacement": 2,
+                        "region": 1}.items():
         data = mesh.point_data[name]
         assert data.shape[0] == len(mesh.points) and (data.shape[1] if data.ndim == 2 else 1) == width
         assert np.all(np.isfinite(data))

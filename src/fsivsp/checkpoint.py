@@ -22,14 +22,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import tempfile
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from . import parallel
+from . import atomic, parallel
 
 FORMAT = 3  # 2: the displacement instead of the stress (lean operators); 3: time schemes
 PREFIX = "checkpoint"
@@ -117,31 +115,8 @@ def _write(path: Path, parts: list[tuple[dict, dict]], step: int, time: float, e
         fingerprint=np.array(json.dumps(_combined([prints for _, prints in parts]), sort_keys=True)),
         extra=np.frombuffer(extra_json.encode(), dtype=np.uint8),  # UTF-8 bytes, not 4-byte characters
     )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            np.savez_compressed(handle, **arrays)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    _sync_directory(path.parent)
-
-
-def _sync_directory(directory: Path) -> None:
-    try:
-        fd = os.open(directory, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
+    with atomic.replacing(path) as tmp, open(tmp, "wb") as handle:
+        np.savez_compressed(handle, **arrays)
 
 
 def _read(path: Path) -> dict:

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
+import signal
 import sys
 import time
 from dataclasses import replace
@@ -362,25 +363,34 @@ def study_records(args, case) -> int:
 
 
 def run_command(args) -> int:
-    from .run import SolveDiverged, load_run_case, run_case
+    """``fsivsp run``: exit 0, 2 (bad input), 3 (not converged), 4 (a file could not be written), 130/143
+    (SIGINT/SIGTERM: the current step finished and checkpointed; during set-up at once, nothing written)."""
+    from .atomic import WriteError
+    from .checkpoint import latest_checkpoint
+    from .run import SolveDiverged, Terminated, load_run_case, raise_terminated, run_case
 
-    case = parallel.shared_case(load_run_case, args.case)
-    out = args.out or Path(args.case.stem)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
     try:
+        case = parallel.shared_case(load_run_case, args.case)
+        out = args.out or Path(args.case.stem)
         with using(args.threads or case.discretisation.threads) as threads:
             summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
     except (SolveDiverged, NotConverged) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
-    except KeyboardInterrupt:
-        if parallel.distributed():
-            print(f"interrupted: summary written in {out} (no checkpoints under mpirun)", file=sys.stderr)
-        else:
-            print(f"interrupted: checkpoint written in {out / 'checkpoints'}; continue with --resume", file=sys.stderr)
-        return 130
-    if not args.quiet:
-        print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
-              f"thread{'s' * (threads > 1)}; results in {out}")
+    except WriteError as error:
+        last = parallel.shared(latest_checkpoint, out / "checkpoints")
+        if parallel.is_root():
+            print(f"error: {error}; last good checkpoint: {last if last else 'none'}", file=sys.stderr)
+        return 4
+    except Terminated as stop:
+        if parallel.is_root():
+            print(stop.message(), file=sys.stderr)
+        return stop.exit_code
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
+          f"thread{'s' * (threads > 1)}; results in {out}")
     return 0
 
 

@@ -2,9 +2,9 @@
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
+
+from . import atomic
 
 HEADERS = {"v1": "e(v1)", "v2": "e(v2)", "v3": "e(v3)", "p": "e(p)", "sigma": "e(σ)", "total": "e(v,p,σ)"}
 
@@ -76,17 +76,8 @@ def _layout(head: list[str], rows: list[list[str]], markdown: bool) -> str:
 
 
 def write_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file and a rename: never a half-written file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as handle:
-            handle.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``text`` to ``path`` atomically (`fsivsp.atomic`): never a half-written file."""
+    atomic.write_text(path, text)
 
 
 def write_json(path: str | Path, data) -> None:
@@ -118,8 +109,6 @@ def convergence_plot(series: dict[str, list[dict]], references: dict[str, list[d
         ax.grid(True, which="both", alpha=0.3)
     axes[0].legend(fontsize=7)
     fig.suptitle("fsivsp (solid) vs González & Selgas 2018 (dashed)")
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=120)
+    with atomic.replacing(path) as tmp:
+        fig.savefig(tmp, dpi=120, format="png")
     plt.close(fig)
-    os.replace(tmp, path)

@@ -189,21 +189,48 @@ def build_scheme(case: RunCase):
                   max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme)
 
 
+class Terminated(KeyboardInterrupt):
+    """The run was stopped by ``signal`` (SIGINT: Ctrl-C, SIGTERM: a scheduler's time limit, ``timeout``):
+    ``step`` and ``time`` where it stopped, ``checkpoint`` the file written there (None: during set-up)."""
+
+    def __init__(self, signum: int, step: int | None = None, time: float | None = None, checkpoint=None):
+        super().__init__(signal.Signals(signum).name)
+        self.signum, self.step, self.time, self.checkpoint = signum, step, time, checkpoint
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+    def message(self) -> str:
+        if self.step is None:
+            return f"{'interrupted' if self.signum == signal.SIGINT else 'terminated'} during set-up: nothing written"
+        what = "interrupted" if self.signum == signal.SIGINT else "terminated"
+        return f"{what} at step {self.step} (t = {self.time:g}): checkpoint {self.checkpoint}; continue with --resume"
+
+
+def raise_terminated(signum, _frame) -> None:
+    """A signal handler for set-up: stop at once."""
+    raise Terminated(signum)
+
+
 class _Interrupt:
-    """Ctrl-C sets a flag; the time loop checkpoints after the current step and stops."""
+    """SIGINT and SIGTERM set a flag; the time loop finishes the current step, checkpoints and stops."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
-        self.requested = False
+        self.requested = 0
 
     def __enter__(self):
-        self._previous = signal.signal(signal.SIGINT, self._handle)
+        self._previous = [signal.signal(signum, self._handle) for signum in self.SIGNALS]
         return self
 
-    def _handle(self, *_):
-        self.requested = True
+    def _handle(self, signum, _frame):
+        self.requested = signum
 
     def __exit__(self, *exc):
-        signal.signal(signal.SIGINT, self._previous)
+        for signum, previous in zip(self.SIGNALS, self._previous):
+            signal.signal(signum, previous)
 
 
 def l2_norms(scheme) -> dict[str, float]:
@@ -335,13 +362,13 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             probes.record(scheme)
             if series is not None and (scheme.n % every == 0 or scheme.n == case.steps):
                 series.write(scheme.time, scheme.n)
-            interrupted = comm.Max(float(interrupt.requested)) > 0
+            interrupted = int(comm.Max(float(interrupt.requested)))
             if scheme.n % keep == 0 or interrupted:
-                save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
+                written = save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())
                 parallel.shared(prune_checkpoints, checkpoints, 2)
             bar.update(1)
             bar.set_postfix_str(f"{scheme.solver.progress()}, {peak_memory() / 2**30:.2f} GiB", refresh=False)
             if interrupted:
-                finish("interrupted")
-                raise KeyboardInterrupt
+                finish("interrupted" if interrupted == signal.SIGINT else "terminated")
+                raise Terminated(interrupted, scheme.n, scheme.time, written)
     return finish("completed")
