@@ -84,3 +84,17 @@ def test_full_disk_stops_with_one_line_and_leaves_a_readable_series(tmp_path, mo
     assert listed == [f"fields_{n:06d}.vtu" for n in (0, 10)] and not (vtk / "fields_000020.vtu").exists()
     for name in listed:
         assert len(meshio.read(vtk / name).points) > 0
+
+
+def test_out_on_a_file_or_an_unwritable_folder(tmp_path, capsys):
+    taken = tmp_path / "taken"
+    taken.write_text("")
+    assert main(["run", str(write_case(tmp_path)), "--out", str(taken), "--quiet"]) == 2
+    assert capsys.readouterr().err.strip().splitlines() == [
+        f"error: fsivsp run: --out {taken}: expected a folder, found a file"]
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o500)
+    if os.access(locked, os.W_OK):  # root writes anywhere: make it a file's child instead
+        locked = taken / "below"
+    assert main(["run", str(write_case(tmp_path)), "--out", str(locked / "out"), "--quiet"]) == 2
+    assert "is not a writable folder" in capsys.readouterr().err

@@ -362,6 +362,15 @@ def study_records(args, case) -> int:
     return 0
 
 
+def check_output_folder(out: Path) -> None:
+    """``--out``: a folder that is or can be made and written (UsageError naming it, before any work)."""
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"fsivsp run: --out {out}: expected a folder, found a file")
+    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(f"fsivsp run: --out {out}: {existing} is not a writable folder")
+
+
 def run_command(args) -> int:
     """``fsivsp run``: exit 0, 2 (bad input), 3 (not converged), 4 (a file could not be written), 130/143
     (SIGINT/SIGTERM: the current step finished and checkpointed; during set-up at once, nothing written)."""
@@ -373,6 +382,7 @@ def run_command(args) -> int:
     try:
         case = parallel.shared_case(load_run_case, args.case)
         out = args.out or Path(args.case.stem)
+        check_output_folder(out)
         with using(args.threads or case.discretisation.threads) as threads:
             summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
     except (SolveDiverged, NotConverged) as error:
