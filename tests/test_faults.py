@@ -98,3 +98,18 @@ def test_out_on_a_file_or_an_unwritable_folder(tmp_path, capsys):
         locked = taken / "below"
     assert main(["run", str(write_case(tmp_path)), "--out", str(locked / "out"), "--quiet"]) == 2
     assert "is not a writable folder" in capsys.readouterr().err
+
+
+def test_resume_reports_a_corrupt_last_checkpoint(tmp_path, capsys):
+    """A truncated last checkpoint is passed over with one line, and the run resumes from the one before."""
+    case = write_case(tmp_path, T=0.002, every=10)
+    out = tmp_path / "out"
+    assert main(["run", str(case), "--out", str(out), "--quiet"]) == 0
+    last = out / "checkpoints" / "checkpoint_000040.npz"
+    last.write_bytes(last.read_bytes()[:1000])
+    capsys.readouterr()
+    assert main(["run", str(case), "--out", str(out), "--resume", "--quiet"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"skipped {last}: not a readable checkpoint (") \
+        and err[0].endswith("resuming from the one before"), err
+    assert final(out)["resumed_from"] == 30

@@ -199,9 +199,10 @@ def prune_checkpoints(directory: str | Path, keep: int = 2) -> None:
         old.unlink(missing_ok=True)
 
 
-def latest_checkpoint(directory: str | Path) -> Path | None:
+def latest_checkpoint(directory: str | Path, report=None) -> Path | None:
     """The readable ``checkpoint*.npz`` in ``directory`` with the highest step (the newest
-    file among equal steps), or None. Temporary and unreadable files are skipped."""
+    file among equal steps), or None. Temporary and unreadable files are skipped; ``report(path, reason)`` is
+    told of each unreadable one."""
     directory = Path(directory)
     if not directory.is_dir():
         return None
@@ -212,7 +213,9 @@ def latest_checkpoint(directory: str | Path) -> Path | None:
         try:
             with np.load(path, allow_pickle=False) as data:
                 step = int(data["step"])
-        except Exception:  # a damaged or foreign file is no candidate
+        except Exception as error:  # a damaged or foreign file is no candidate
+            if report is not None:
+                report(path, error)
             continue
         key = (step, path.stat().st_mtime_ns, path.name)
         if best_key is None or key > best_key:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import signal
+import sys
 import time as clock
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -208,6 +209,12 @@ class Terminated(KeyboardInterrupt):
         return f"{what} at step {self.step} (t = {self.time:g}): checkpoint {self.checkpoint}; continue with --resume"
 
 
+def _skipped(path: Path, error: Exception) -> None:
+    """Say, on resume, that an unreadable checkpoint was passed over."""
+    print(f"skipped {path}: not a readable checkpoint ({type(error).__name__}: {error}); resuming from the one before",
+          file=sys.stderr)
+
+
 def raise_terminated(signum, _frame) -> None:
     """A signal handler for set-up: stop at once."""
     raise Terminated(signum)
@@ -289,7 +296,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
     history = {"time": [], "energy": []}
     resumed_from = None
-    if resume and (latest := parallel.shared(latest_checkpoint, checkpoints)) is not None:
+    if resume and (latest := parallel.shared(latest_checkpoint, checkpoints, _skipped)) is not None:
         extra = load_checkpoint(latest, scheme)
         history = extra["history"]
         probes.restore(extra["probes"])
