@@ -184,19 +184,17 @@ class PETScSolver:
 
         defaults = {**DEFAULTS, **(DEFAULTS_3D if spaces.mesh.dim == 3 else {})}
         self.options = self._set_options(PETSc, defaults, options or {})
-        merged = self.options
         self.ksp = PETSc.KSP().create(comm=PETSc.COMM_SELF)
         self.ksp.setOptionsPrefix(PREFIX)
         self.ksp.setOperators(self.A)
-        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)
         pc = self.ksp.getPC()
         pc.setType("fieldsplit")
         pc.setFieldSplitIS(("velocity", velocity), ("pressure", pressure))
         self.ksp.setFromOptions()
-        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)
+        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
         self.ksp.setInitialGuessNonzero(True)
-        self.ksp.setUp()
-        if merged.get("pc_fieldsplit_type") == "schur" and merged["schur_approximation"] != "petsc":
+        self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
+        if self.options.get("pc_fieldsplit_type") == "schur" and self.options["schur_approximation"] != "petsc":
             self._pressure_preconditioner(spaces, materials, dt, step, nvel)
         self.ksp.setUp()
         if pc.getType() == "fieldsplit":
@@ -342,5 +340,5 @@ class PETScSolver:
                 "preconditioner": {"ksp": self.options["ksp_type"], "pc": "fieldsplit "
                                    + self.options.get("pc_fieldsplit_type", ""),
                                    "velocity": self.options.get("fieldsplit_velocity_pc_type"),
-                                   "pressure": "Cahouet-Chabard"},
+                                   "pressure": self.options["schur_approximation"]},
                 "iterations": {"mean": float(np.mean(counts)), "max": int(max(counts)), "solves": len(self.iterations)}}
