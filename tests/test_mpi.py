@@ -67,16 +67,24 @@ def test_serial_helpers_are_identities():
 
 
 @needs_mpi
-@pytest.mark.parametrize("text, family", [(TUBE, "mini"), (BALL, None)], ids=["tube-2d", "ball-3d"])
-def test_run_equals_serial(tmp_path, text, family):
-    """``fsivsp run`` on 2 ranks: the same counts, energies at every step and final L² norms as the serial run."""
+@pytest.mark.parametrize("text, family, solver, ranks", [
+    (TUBE, "mini", None, 2), (BALL, None, None, 2), (TUBE, "mini", "petsc", 2), (BALL, None, "petsc", 3),
+    (TUBE, "mini", "direct", 2)], ids=["tube-2d", "ball-3d", "tube-2d-petsc", "ball-3d-petsc-3-ranks", "tube-2d-mumps"])
+def test_run_equals_serial(tmp_path, text, family, solver, ranks):
+    """``fsivsp run`` on 2 (3) ranks: the same counts, energies at every step and final L² norms as the serial
+    run; NGSolve's distributed solver by default, PETSc's over all ranks (rank 0 too) with ``solver = "petsc"``."""
     case = tmp_path / "case.toml"
-    case.write_text(text.format(family=family))
+    text = text.format(family=family)
+    if solver:
+        text = text.replace("[discretisation]", f'[discretisation]\nsolver = "{solver}"', 1) if "[discretisation]" in text \
+            else text + f'\n[discretisation]\nsolver = "{solver}"\n'
+    case.write_text(text)
     assert main(["run", str(case), "--out", str(tmp_path / "serial"), "--quiet"]) == 0
-    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
+    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet", ranks=ranks)
     assert done.returncode == 0, done.stderr
     serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
-    assert distributed["solver"]["method"] == "distributed" and distributed["ranks"]["size"] == 2
+    assert distributed["solver"]["method"] == {None: "distributed", "direct": "petsc"}.get(solver, solver)
+    assert distributed["ranks"]["size"] == ranks
     assert (distributed["mesh"], distributed["dofs"]) == (serial["mesh"], serial["dofs"])
     assert_close(serial["l2_norms"], distributed["l2_norms"], "L² norm")
     assert_close(dict(enumerate(serial["energy"]["energy"])), dict(enumerate(distributed["energy"]["energy"])),
@@ -118,11 +126,11 @@ def test_errors_equal_serial(tmp_path, command):
 @pytest.mark.parametrize("old, new, args, message", [
     ("[boundary.solid_ends]", "[boundary.nowhere]", [],  # found while meshing, on rank 0 only
      "error: boundary.nowhere: no boundary of that name"),
-    ('family = "mini"', 'family = "mini"\nsolver = "direct"', [],
-     "error: discretisation.solver: 'direct' does not run under mpirun"),
+    ('family = "mini"', 'family = "mini"\nsolver = "umfpack"', [],
+     "error: discretisation.solver: 'umfpack' does not run under mpirun"),
     ("probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]", "probes = [[0.5, 0.0], [10.0, 0.0]]", [],
      "error: probe 1 at (10, 0) is outside the mesh; expected a point in its bounding box"),
-], ids=["boundary", "direct-solver", "probe-outside"])
+], ids=["boundary", "serial-direct-solver", "probe-outside"])
 def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     """Exit 2 (mpirun's code: every rank's), the error printed once, no rank left running (the timeout)."""
     case = tmp_path / "case.toml"
@@ -131,6 +139,19 @@ def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
     assert done.returncode == 2, done.stderr
     ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(ours) == 1 and ours[0].startswith(message), done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@needs_mpi
+def test_petsc_not_converging_ends_every_rank(tmp_path):
+    """PETSc over 2 ranks stopped after 2 iterations: exit 3 on every rank, one line naming the solver."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace('family = "mini"',
+                                                       'family = "mini"\nsolver = "petsc"\nmax_iterations = 2'))
+    done = mpirun("run", str(case), "--out", str(tmp_path / "out"))
+    assert done.returncode == 3, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and "petsc: fgmres did not reach the tolerance" in ours[0], done.stderr
     assert "Traceback" not in done.stderr
 
 

@@ -68,14 +68,16 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     name = "auto" if name is None else name
     if name not in solver_names():
         raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
-    if isinstance(matrix, ngs.la.ParallelMatrix):  # a distributed mesh (mpirun)
+    distributed = isinstance(matrix, ngs.la.ParallelMatrix)  # a distributed mesh (mpirun)
+    if name == "petsc" or (distributed and name == "direct"):
+        from .petsc import MUMPS, PETScSolver
+
+        options = {**MUMPS, **(petsc_options or {})} if name == "direct" else petsc_options
+        return PETScSolver(matrix, spaces, materials, dt, tol, maxiter, options)
+    if distributed:
         return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
     if name == "auto":
         name = "iterative" if spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim] else "direct"
     if name == "iterative":
         return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
-    if name == "petsc":
-        from .petsc import PETScSolver
-
-        return PETScSolver(matrix, spaces, materials, dt, tol, maxiter, petsc_options)
     return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name == "direct" else name)

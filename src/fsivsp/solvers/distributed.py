@@ -25,8 +25,9 @@ from ..materials import Materials
 from ..spaces import Spaces
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver
 
-#: The solver names that mean the distributed solver on a distributed mesh (no direct method runs there).
-DISTRIBUTED_SOLVERS = ("auto", "iterative")
+#: The solver names a distributed mesh takes: ``auto`` and ``iterative`` mean `DistributedSolver`; ``petsc`` and
+#: ``direct`` (MUMPS) PETSc's solvers over all ranks (`petsc`). No other direct method runs there.
+DISTRIBUTED_SOLVERS = ("auto", "iterative", "petsc", "direct")
 
 
 class DistributedPreconditioner:

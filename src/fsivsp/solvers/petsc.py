@@ -1,17 +1,21 @@
-"""The PETSc backend for step 1 of (5.1): a Krylov method with a PCFIELDSPLIT Schur-complement preconditioner.
+"""The PETSc backend for step 1 of (5.1): a Krylov method with a PCFIELDSPLIT Schur-complement preconditioner,
+serial or over all MPI ranks.
 
 The step matrix on the free dofs is [[A, C^T], [C, 0]], C = −ΔtB, A = ρM + 2νΔt K_F + Δt²(2μ K_S + λ D_S)
-(`forms.step_matrix`). PETSc sees it as one AIJ matrix with two named fields:
+(`forms.step_matrix`). PETSc sees it as one AIJ matrix (MPIAIJ under mpirun, its rows split evenly over the
+ranks in `petsc_layout`'s order) with two named fields:
 
-- ``velocity``: A⁻¹ by algebraic multigrid, GAMG with the rigid motions as near-nullspace (the kernel of ε, in
-  the fluid and the solid alike), on the velocity dofs ordered node by node (block size d);
-- ``pressure``: the Schur complement S = −C A⁻¹ Cᵀ by Cahouet–Chabard, S⁻¹ ≈ −(F_ρ⁻¹ + 2ν/Δt M_p⁻¹) with
-  F_ρ = C diag(ρM)⁻¹ Cᵀ (the pressure Laplacian of the discrete B, inertia-dominated limit: one AMG cycle) and
-  M_p the pressure mass (viscosity-dominated limit: its diagonal), `CahouetChabard` below.
+- ``velocity``: A⁻¹ by one BoomerAMG V-cycle on the velocity dofs ordered node by node (block size d), the rigid
+  motions attached as near-nullspace (the kernel of ε, in the fluid and the solid alike);
+- ``pressure``: the Schur complement S = −C A⁻¹ Cᵀ by the corrected least-squares commutator of
+  `schur.LeastSquaresCommutator`, S⁻¹ ≈ F⁻¹ (Yᵀ A Y) F⁻¹ with Y = diag(A)⁻¹ Cᵀ and F = C Y (F⁻¹ by two BoomerAMG
+  cycles), built with PETSc's sparse products; or Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + 2ν/Δt diag(M_p)⁻¹
+  (``schur_approximation = "cahouet-chabard"``), or PETSc's own (``"petsc"``).
 
-The Krylov method is FGMRES on the unpreconditioned residual, stopped at ``tol`` times ‖b‖. Every choice is a
-PETSc option under the prefix ``fsivsp_`` (`DEFAULTS`), overridden by the case file's ``[solver.petsc]`` table
-or ``--petsc-options``, e.g. ``-fsivsp_ksp_monitor`` or ``-fsivsp_fieldsplit_velocity_pc_type hypre``.
+The Krylov method is FGMRES on the unpreconditioned residual, stopped at ``tol`` times ‖b‖. Under mpirun
+``solver = "direct"`` is MUMPS's LU (`MUMPS`). Every choice is a PETSc option under the prefix ``fsivsp_``
+(`DEFAULTS`), overridden by the case file's ``[solver.petsc]`` table or ``--petsc-options``, e.g.
+``-fsivsp_ksp_monitor`` or ``-fsivsp_fieldsplit_velocity_pc_type gamg``.
 """
 from __future__ import annotations
 
@@ -23,13 +27,17 @@ from typing import Mapping
 import numpy as np
 import ngsolve as ngs
 
-from .. import forms
+from .. import forms, parallel
 from ..materials import Materials
 from ..spaces import Spaces
-from .direct import SolverError, free_mask, to_scipy_csr
+from .direct import SolverError, to_scipy_csr
 from .iterative import NotConverged
+from .petsc_layout import layout
 
 PREFIX = "fsivsp_"
+
+#: The direct solve over MPI ranks (``solver = "direct"`` under mpirun): MUMPS's LU of the whole step matrix.
+MUMPS: dict[str, str] = {"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"}
 
 #: The measured defaults (docs/solvers.md, "PETSc"). Keys without the prefix; values as PETSc reads them.
 DEFAULTS: dict[str, str] = {
@@ -94,17 +102,15 @@ def _petsc():
 
 
 def rigid_motions(points: np.ndarray) -> np.ndarray:
-    """The rigid motions at ``points`` (n × d) as columns of an (n·d × m) array, node by node (x₁, y₁[, z₁],
-    x₂, …): d translations and d(d−1)/2 rotations about the centroid, orthonormalised."""
+    """The rigid motions at ``points`` (n × d, relative to a centre) as columns of an (n·d × m) array, node by node
+    (x₁, y₁[, z₁], x₂, …): d translations and d(d−1)/2 rotations."""
     n, d = points.shape
-    x = points - points.mean(axis=0)
     modes = [np.zeros((n, d)) for _ in range(d + d * (d - 1) // 2)]
     for j in range(d):
         modes[j][:, j] = 1.0
     for k, (a, b) in enumerate([(0, 1)] if d == 2 else [(0, 1), (1, 2), (2, 0)]):
-        modes[d + k][:, a], modes[d + k][:, b] = -x[:, b], x[:, a]
-    basis = np.column_stack([m.ravel() for m in modes])
-    return np.linalg.qr(basis)[0]
+        modes[d + k][:, a], modes[d + k][:, b] = -points[:, b], points[:, a]
+    return np.column_stack([m.ravel() for m in modes])
 
 
 class SchurPreconditioner:
@@ -134,34 +140,23 @@ class SchurPreconditioner:
         y.scale(-1.0)
 
 
-def least_squares_commutator(step, nvel: int, higher: np.ndarray, corrected: bool):
-    """(F, Yᵀ A Y − C) of `schur.LeastSquaresCommutator` from the step matrix on the free dofs (scipy, PETSc's
-    order): D = diag(A), Y = D⁻¹ Cᵀ, F = C Y; ``higher`` marks the velocity's higher-order dofs, whose term
-    the correction C = Y_hᵀ A_hh Y_h − F_h diag(F_h)⁻¹ F_h replaces where ``corrected``."""
-    import scipy.sparse as sp
-
-    a, c = step[:nvel, :nvel].tocsr(), step[nvel:, :nvel].tocsr()
-    y = (sp.diags(1.0 / a.diagonal()) @ c.T).tocsr()
-    f = (c @ y).tocsr()
-    middle = (y.T @ (a @ y)).tocsr()
-    if corrected and higher.any():
-        y_h = (sp.diags(higher.astype(float)) @ y).tocsr()
-        f_h = (c @ y_h).tocsr()
-        scale = f_h.diagonal()
-        scale = np.where(scale > 0, 1.0 / np.where(scale > 0, scale, 1.0), 0.0)
-        middle = (middle - y_h.T @ (a @ y_h) + f_h @ sp.diags(scale) @ f_h).tocsr()
-    return f, middle
+def part(vector, field):
+    """A copy of ``vector``'s entries on the index set ``field``."""
+    borrowed = vector.getSubVector(field)
+    copy = borrowed.copy()
+    vector.restoreSubVector(field, borrowed)
+    return copy
 
 
 class PETScSolver:
-    """Step 1 by PETSc's KSP with the fieldsplit preconditioner of the module's docstring.
+    """Step 1 by PETSc's KSP with the fieldsplit preconditioner of the module's docstring, serial or over the
+    MPI ranks of a distributed mesh (the rows in `petsc_layout`'s order, split evenly over the ranks).
 
     ``solve_step(rhs, boundary, out, guess)`` sets ``out = boundary + A_ff⁻¹ rhs`` from the free part of
     ``guess``; raises `NotConverged` when PETSc's KSP stops without reaching ``tol`` ‖b‖.
     """
 
     method = "petsc"
-    overlap = True
 
     def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float,
                  maxiter: int, options: Mapping[str, object] | None = None):
@@ -170,38 +165,44 @@ class PETScSolver:
         PETSc = _petsc()
         start = time.perf_counter()
         self.PETSc, self.tol, self.maxiter = PETSc, tol, maxiter
-        X, V = spaces.mixed, spaces.velocity
-        free = free_mask(X.FreeDofs(), X.ndof)
-        self.order, blocksize = self._ordering(spaces, free)
-        nvel = int(np.count_nonzero(self.order < V.ndof))
-        full = to_scipy_csr(matrix)
-        step = full[self.order][:, self.order].tocsr()
-        self.A = self._mat(step)
-        velocity = PETSc.IS().createStride(nvel, 0, 1, comm=PETSc.COMM_SELF)
-        velocity.setBlockSize(blocksize)
-        pressure = PETSc.IS().createStride(len(self.order) - nvel, nvel, 1, comm=PETSc.COMM_SELF)
-        velocity.compose("nearnullspace", self._near_nullspace(spaces, nvel, blocksize))
+        self.distributed = isinstance(matrix, ngs.la.ParallelMatrix)
+        self.overlap = not self.distributed  # its products and reductions communicate: one MPI call at a time
+        self.comm = PETSc.COMM_WORLD if self.distributed else PETSc.COMM_SELF
+        local = to_scipy_csr(matrix.local_mat if self.distributed else matrix)
+        self.layout = L = layout(spaces, local)
+        self._numbers = L.numbers.astype(PETSc.IntType)
+        self._field = L.field.astype(PETSc.IntType)
+        self.A = self._matrix(local[L.local][:, L.local].tocsr())
+        first, middle, stop = L.rows[0], L.velocity_rows[1], L.rows[1]
+        self.fields = (PETSc.IS().createStride(middle - first, first, 1, comm=self.comm),
+                       PETSc.IS().createStride(stop - middle, middle, 1, comm=self.comm))
+        self.fields[0].setBlockSize(L.blocksize)
+        self._b, self._x = self.A.createVecs()
+        self._near_nullspace = self._rigid_motions(spaces)
+        self.fields[0].compose("nearnullspace", self._near_nullspace)
 
         defaults = {**DEFAULTS, **(DEFAULTS_3D if spaces.mesh.dim == 3 else {})}
         self.options = self._set_options(PETSc, defaults, options or {})
-        self.ksp = PETSc.KSP().create(comm=PETSc.COMM_SELF)
+        self.ksp = PETSc.KSP().create(comm=self.comm)
         self.ksp.setOptionsPrefix(PREFIX)
         self.ksp.setOperators(self.A)
         pc = self.ksp.getPC()
         pc.setType("fieldsplit")
-        pc.setFieldSplitIS(("velocity", velocity), ("pressure", pressure))
+        pc.setFieldSplitIS(("velocity", self.fields[0]), ("pressure", self.fields[1]))
         self.ksp.setFromOptions()
         self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
-        self.ksp.setInitialGuessNonzero(True)
+        self.ksp.setInitialGuessNonzero(self.ksp.getType() != "preonly")  # the previous step (a direct solve: none)
         self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
-        if self.options.get("pc_fieldsplit_type") == "schur" and self.options["schur_approximation"] != "petsc":
-            self._pressure_preconditioner(spaces, materials, dt, step, nvel)
-        self.ksp.setUp()
         if pc.getType() == "fieldsplit":
+            if self.options.get("pc_fieldsplit_type") == "schur" and self.options["schur_approximation"] != "petsc":
+                self._pressure_preconditioner(spaces, materials, dt)
+            self.ksp.setUp()
             for block in pc.getFieldSplitSubKSP():  # else PETSc sets up the AMG at the first solve
                 block.setUp()
         self._clear_options()
-        self._b, self._x = self.A.createVecs()
+        self._local = PETSc.Vec().createSeq(len(L.local), comm=PETSc.COMM_SELF)
+        self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
+                                               self._local, None)
         _LIVE.add(self)
         self.iterations: list[int] = []
         self.residual = float("nan")
@@ -228,88 +229,154 @@ class PETScSolver:
         for name in self._entered:
             database.delValue(name)
 
-    @staticmethod
-    def _ordering(spaces: Spaces, free: np.ndarray) -> tuple[np.ndarray, int]:
-        """The free dofs in PETSc's order: the velocity node by node (block size d) where every component is
-        free on the same scalar dofs, else component by component (block size 1); then the pressure."""
-        V, d = spaces.velocity, spaces.mesh.dim
-        scalar = V.ndof // d
-        components = free[:V.ndof].reshape(d, scalar)
-        pressure = np.flatnonzero(free[V.ndof:]) + V.ndof
-        if (components == components[0]).all():
-            nodes = np.flatnonzero(components[0])
-            velocity = (np.arange(d)[None, :] * scalar + nodes[:, None]).ravel()
-            return np.concatenate([velocity, pressure]), d
-        return np.concatenate([np.flatnonzero(free[:V.ndof]), pressure]), 1
+    def _matrix(self, local):
+        """The step matrix on the free dofs as a PETSc AIJ matrix from ``local``, this rank's matrix on its free
+        dofs in PETSc's order (scipy CSR): serially itself; distributed a summand of the global matrix, the
+        local part of a MATIS, converted."""
+        PETSc, L = self.PETSc, self.layout
+        if not self.distributed:
+            return self._aij(local, PETSc.COMM_SELF)
+        mapping = PETSc.LGMap().create(self._numbers, comm=self.comm)
+        rows = L.rows[1] - L.rows[0]
+        assembled = PETSc.Mat().createIS(((rows, L.size), (rows, L.size)), lgmapr=mapping, lgmapc=mapping,
+                                         comm=self.comm)
+        part = self._aij(local, PETSc.COMM_SELF)
+        assembled.setISLocalMat(part)
+        assembled.assemble()
+        assembled.convert("aij")  # in place
+        part.destroy()
+        mapping.destroy()
+        return assembled
 
-    def _mat(self, csr):
+    def _aij(self, csr, comm):
         PETSc = self.PETSc
         return PETSc.Mat().createAIJ(size=csr.shape, csr=(csr.indptr.astype(PETSc.IntType),
-                                                          csr.indices.astype(PETSc.IntType), csr.data),
-                                     comm=PETSc.COMM_SELF)
+                                                          csr.indices.astype(PETSc.IntType), csr.data), comm=comm)
 
-    def _near_nullspace(self, spaces: Spaces, nvel: int, blocksize: int):
-        """The rigid motions on the velocity field: their vertex values (the hierarchical basis's higher dofs
-        of a linear field vanish), zero elsewhere."""
-        PETSc, mesh, V = self.PETSc, spaces.mesh, spaces.velocity
+    def _load(self, values: np.ndarray, target, summands: bool) -> None:
+        """``values`` of X_h's local vector into the PETSc vector ``target`` (PETSc's order): every rank's added
+        where the values are ``summands`` of a distributed vector, else the masters' inserted."""
+        L, mode = self.layout, self.PETSc.InsertMode
+        values = values[L.local]
+        target.set(0.0)
+        if summands:
+            target.setValues(self._numbers, values, addv=mode.ADD_VALUES)
+        else:
+            target.setValues(self._numbers[L.master], values[L.master], addv=mode.INSERT_VALUES)
+        target.assemble()
+
+    def _load_vector(self, vector: ngs.BaseVector, target) -> None:
+        summands = getattr(vector, "GetParallelStatus", lambda: None)() == ngs.la.PARALLEL_STATUS.DISTRIBUTED
+        self._load(vector.FV().NumPy(), target, summands)
+
+    def _field_vector(self, values: np.ndarray):
+        """A vector on the velocity field (its sub-matrix's layout) from the velocity master dofs' ``values``."""
+        L = self.layout
+        vector = self.PETSc.Vec().createMPI((L.nvel_rows, L.nvel), bsize=L.blocksize, comm=self.comm)
+        vector.setValues(self._field, values)
+        vector.assemble()
+        return vector
+
+    def _rigid_motions(self, spaces: Spaces):
+        """The near-nullspace of the velocity field: the rigid motions' vertex values (the hierarchical basis's
+        higher dofs of a linear field vanish) about the centroid of the vertices, orthonormalised."""
+        L, mesh, V = self.layout, spaces.mesh, spaces.velocity
         d, scalar = mesh.dim, V.ndof // mesh.dim
-        points = np.array([v.point for v in mesh.vertices])
-        modes = rigid_motions(points).reshape(mesh.nv, d, -1)  # (vertex, component, mode)
-        velocity = self.order[:nvel]
-        component, node = np.divmod(velocity, scalar)
-        values = np.zeros((nvel, modes.shape[2]))
+        component, node = np.divmod(L.local[:L.nvel_local][L.master[:L.nvel_local]], scalar)
         vertex = node < mesh.nv
-        values[vertex] = modes[node[vertex], component[vertex]]
-        values = np.linalg.qr(values)[0]
+        points = np.array([v.point for v in mesh.vertices]).reshape(-1, d)[node[vertex]]
+        sums = parallel.total(np.append(points[component[vertex] == 0].sum(axis=0), np.sum(component[vertex] == 0)))
+        modes = rigid_motions(points - sums[:d] / max(sums[d], 1.0)).reshape(-1, d, d * (d + 1) // 2)
+        values = np.zeros((len(node), modes.shape[2]))
+        values[vertex] = modes[np.arange(vertex.sum()), component[vertex]]
         vectors = []
         for column in values.T:
-            vec = PETSc.Vec().createWithArray(np.ascontiguousarray(column), comm=PETSc.COMM_SELF)
-            vec.setBlockSize(blocksize)
-            vectors.append(vec)
-        return PETSc.NullSpace().create(vectors=vectors, comm=PETSc.COMM_SELF)
+            vector = self._field_vector(column)
+            for other in vectors:  # modified Gram–Schmidt
+                vector.axpy(-vector.dot(other), other)
+            vector.normalize()
+            vectors.append(vector)
+        self._keep = list(vectors)
+        return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
 
-    def _pressure_preconditioner(self, spaces: Spaces, materials: Materials, dt: float, step, nvel: int) -> None:
+    def _pressure_preconditioner(self, spaces: Spaces, materials: Materials, dt: float) -> None:
         """The pressure block as PETSc's Python PC: the least-squares commutator (``schur_approximation =
-        lsc``, the default) or Cahouet–Chabard (``cahouet-chabard``), see the module's docstring."""
-        PETSc = self.PETSc
+        lsc``, the default) or Cahouet–Chabard (``cahouet-chabard``), see the module's docstring; built with
+        PETSc's sparse products from the blocks A (velocity) and C (pressure–velocity) of the step matrix."""
+        PETSc, (velocity, pressure) = self.PETSc, self.fields
+        a = self.A.createSubMatrix(velocity, velocity)
+        c = self.A.createSubMatrix(pressure, velocity)
         if self.options["schur_approximation"] == "lsc":
-            corrected = spaces.family == "mini" or spaces.order == 1
-            f, middle = least_squares_commutator(step, nvel, self._higher(spaces, nvel), corrected)
-            self._keep = [self._mat(f), self._mat(middle)]
-            context = SchurPreconditioner(PETSc, self._keep[0], self._keep[1], None, PREFIX + "schur_laplacian_")
+            diagonal = a.getDiagonal()
+            laplacian, y = self._laplacian(c, diagonal)
+            middle = a.ptap(y)
+            if spaces.family == "mini" or spaces.order == 1:
+                self._correct(middle, a, c, y, spaces)
+            weight = None
         else:
-            X = spaces.mixed
-            (v, p), (w, q) = X.TnT()
-            mass = forms.velocity_mass(spaces, materials)
-            mass.Assemble()
-            pmass = ngs.BilinearForm(X)
-            pmass += forms.pressure_mass(p, q)
-            pmass.Assemble()
-            rho = to_scipy_csr(mass.mat).diagonal()[self.order[:nvel]]
-            coupling = step[nvel:, :nvel].tocsr()
-            laplacian = (coupling @ (coupling.T.multiply(1.0 / rho[:, None]))).tocsr()
-            weight = PETSc.Vec().createWithArray(2 * materials.nu / dt
-                                                 / to_scipy_csr(pmass.mat).diagonal()[self.order[nvel:]])
-            self._keep = [self._mat(laplacian), weight]
-            context = SchurPreconditioner(PETSc, self._keep[0], None, weight, PREFIX + "schur_laplacian_")
+            mass, pmass = self._masses(spaces, materials)
+            laplacian, y = self._laplacian(c, part(mass, velocity))
+            weight, middle = part(pmass, pressure), None
+            weight.reciprocal()
+            weight.scale(2 * materials.nu / dt)
+        self._keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
+        context = SchurPreconditioner(PETSc, laplacian, middle, weight, PREFIX + "schur_laplacian_")
         pc = self.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
         pc.setType("python")
         pc.setPythonContext(context)
         self._schur = context
 
-    def _higher(self, spaces: Spaces, nvel: int) -> np.ndarray:
-        """Which of PETSc's velocity dofs are not vertex dofs (MINI's bubbles, Taylor–Hood's higher dofs)."""
+    def _laplacian(self, c, diagonal):
+        """(C Y, Y) with Y = diag(``diagonal``)⁻¹ Cᵀ: the pressure Laplacian of the discrete divergence."""
+        y = c.transpose(self.PETSc.Mat())
+        inverse = diagonal.copy()
+        inverse.reciprocal()
+        y.diagonalScale(L=inverse)
+        return c.matMult(y), y
+
+    def _correct(self, middle, a, c, y, spaces: Spaces) -> None:
+        """The corrected commutator (`schur.LeastSquaresCommutator`): the higher dofs' term Y_hᵀ A Y_h of the
+        middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
+        L, structure = self.layout, self.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
         scalar = spaces.velocity.ndof // spaces.mesh.dim
-        return self.order[:nvel] % scalar >= spaces.mesh.nv
+        higher = L.local[:L.nvel_local][L.master[:L.nvel_local]] % scalar >= spaces.mesh.nv
+        if not parallel.total(np.array([higher.sum()]))[0]:
+            return
+        y_h = y.copy()
+        y_h.diagonalScale(L=self._field_vector(higher.astype(float)))
+        f_h = c.matMult(y_h)
+        scale = f_h.getDiagonal()
+        values = scale.getArray()
+        values[:] = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), 0.0)
+        scaled = f_h.copy()
+        scaled.diagonalScale(L=scale)
+        middle.axpy(-1.0, a.ptap(y_h), structure=structure)
+        middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
+
+    def _masses(self, spaces: Spaces, materials: Materials):
+        """The diagonals of the velocity mass ρM and the pressure mass M_p as PETSc vectors (PETSc's order)."""
+        X = spaces.mixed
+        (_, p), (_, q) = X.TnT()
+        mass = forms.velocity_mass(spaces, materials)
+        pmass = ngs.BilinearForm(X)
+        pmass += forms.pressure_mass(p, q)
+        diagonals = []
+        for form in (mass, pmass):
+            form.Assemble()
+            matrix = form.mat.local_mat if self.distributed else form.mat
+            vector = self._x.duplicate()
+            self._load(to_scipy_csr(matrix).diagonal(), vector, self.distributed)
+            diagonals.append(vector)
+        return diagonals
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
                    guess: ngs.BaseVector | None = None) -> None:
         """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself)."""
-        self._b.setArray(rhs.FV().NumPy()[self.order])
+        self._load_vector(rhs, self._b)
         if guess is None:
             self._x.set(0.0)
         else:
-            self._x.setArray(guess.FV().NumPy()[self.order])
+            self._load_vector(guess, self._x)
         self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
         norm = self._b.norm()
@@ -318,13 +385,16 @@ class PETScSolver:
             raise NotConverged(f"petsc: {self.ksp.getType()} did not reach the tolerance {self.tol:g} in "
                                f"{self.iterations[-1]} iterations (relative residual {self.residual:.2e}, "
                                f"reason {self.ksp.getConvergedReason()})")
-        values = boundary.FV().NumPy().copy()
-        values[self.order] += self._x.getArray()
-        out.FV().NumPy()[:] = values
+        self._scatter.scatter(self._x, self._local, addv=self.PETSc.InsertMode.INSERT_VALUES)
+        out.data = boundary
+        if self.distributed:
+            out.Cumulate()
+        out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
     def destroy(self) -> None:
         """Free the PETSc objects (`_LIVE`: at exit, before PETSc finalises)."""
-        for obj in (self.ksp, self.A, self._b, self._x, *getattr(self, "_keep", ())):
+        for obj in (self.ksp, self.A, self._b, self._x, self._local, self._scatter, self._near_nullspace,
+                    *self.fields, *self._keep):
             obj.destroy()
         if getattr(self, "_schur", None) is not None:
             self._schur.amg.destroy()
@@ -336,8 +406,8 @@ class PETScSolver:
     def statistics(self) -> dict:
         counts = self.iterations or [0]
         return {"method": self.method, "tolerance": self.tol, "residual": self.residual,
-                "setup_seconds": self.factor_seconds,
-                "preconditioner": {"ksp": self.options["ksp_type"], "pc": "fieldsplit "
+                "setup_seconds": self.factor_seconds, "ranks": self.comm.getSize(),
+                "preconditioner": {"ksp": self.options["ksp_type"], "pc": self.ksp.getPC().getType() + " "
                                    + self.options.get("pc_fieldsplit_type", ""),
                                    "velocity": self.options.get("fieldsplit_velocity_pc_type"),
                                    "pressure": self.options["schur_approximation"]},
