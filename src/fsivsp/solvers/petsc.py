@@ -60,12 +60,14 @@ DEFAULTS: dict[str, str] = {
 #: coarsening, ext+i interpolation with at most 4 entries per row, aggressive coarsening on the first level):
 #: on level 3 of the 3D fluid ball 14 iterations at 17 ms per V-cycle against 10 at 64 ms with hypre's
 #: defaults. In 2D the defaults are better (the paper's levels 2-4: 13, 16, 21 iterations against 24, 30, 37).
+#: The pressure Laplacian F takes the same coarsening (not the smoother): on the 3D tube at maxh 0.1 (57 645
+#: unknowns) its operator complexity with hypre's defaults is 4.1 (F = C diag(A)⁻¹ Cᵀ has 55 entries a row) and
+#: the pressure block took 1.29 of 2.03 s of the solves, 0.41 s with these, in the same 31.3 iterations; the 3D
+#: ball's level 3: 28.5 iterations either way.
 DEFAULTS_3D: dict[str, str] = {
-    "fieldsplit_velocity_pc_hypre_boomeramg_strong_threshold": "0.5",
-    "fieldsplit_velocity_pc_hypre_boomeramg_coarsen_type": "HMIS",
-    "fieldsplit_velocity_pc_hypre_boomeramg_interp_type": "ext+i",
-    "fieldsplit_velocity_pc_hypre_boomeramg_P_max": "4",
-    "fieldsplit_velocity_pc_hypre_boomeramg_agg_nl": "1",
+    **{f"{block}_pc_hypre_boomeramg_{key}": value for block in ("fieldsplit_velocity", "schur_laplacian")
+       for key, value in (("strong_threshold", "0.5"), ("coarsen_type", "HMIS"), ("interp_type", "ext+i"),
+                          ("P_max", "4"), ("agg_nl", "1"))},
     "fieldsplit_velocity_pc_hypre_boomeramg_relax_type_all": "l1scaled-SOR/Jacobi",
 }
 
@@ -207,6 +209,17 @@ class PETScSolver:
         self.iterations: list[int] = []
         self.residual = float("nan")
         self.factor_seconds = time.perf_counter() - start
+        self.matvec_seconds = self._matvec_seconds()
+
+    def _matvec_seconds(self, repeats: int = 3) -> float:
+        """One product with the step matrix (the fastest of ``repeats``): the unit of a step's cost."""
+        self._x.set(1.0)
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            self.A.mult(self._x, self._b)
+            times.append(time.perf_counter() - start)
+        return min(times)
 
     def _set_options(self, PETSc, defaults: dict[str, str], options: Mapping[str, object]) -> dict[str, str]:
         """Enter ``defaults`` (`DEFAULTS`, `DEFAULTS_3D`), then ``options`` (the case file's or the command line's), into PETSc's options
@@ -406,7 +419,8 @@ class PETScSolver:
     def statistics(self) -> dict:
         counts = self.iterations or [0]
         return {"method": self.method, "tolerance": self.tol, "residual": self.residual,
-                "setup_seconds": self.factor_seconds, "ranks": self.comm.getSize(),
+                "setup_seconds": self.factor_seconds, "matvec_seconds": self.matvec_seconds,
+                "ranks": self.comm.getSize(),
                 "preconditioner": {"ksp": self.options["ksp_type"], "pc": self.ksp.getPC().getType() + " "
                                    + self.options.get("pc_fieldsplit_type", ""),
                                    "velocity": self.options.get("fieldsplit_velocity_pc_type"),

@@ -1,0 +1,88 @@
+"""The 3D fluid-filled elastic tube (examples/pressure_wave.toml) at several mesh sizes, solvers and rank counts.
+
+Each (maxh, solver, ranks) is one ``fsivsp run`` of ``--steps`` steps in a process (or ``mpirun -np RANKS``) of its
+own, under ``/usr/bin/time -v`` for the peak memory of each rank. Reads the run's summary.json: free unknowns,
+iterations per step, set-up and time per step (the run's total minus its set-up, over the steps), one
+matrix–vector product of the step matrix (the PETSc solver's ``matvec_seconds``) and the step's cost in products.
+Prints a table and writes JSON.
+
+    python benchmarks/tube.py --maxh 0.1 0.07 0.05 --solvers petsc iterative --steps 3 --json benchmarks/tube.json
+    python benchmarks/tube.py --maxh 0.05 --solvers petsc --ranks 1 2 --steps 3 --json benchmarks/tube_mpi.json
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).parent.parent
+EXAMPLE = ROOT / "examples" / "pressure_wave.toml"
+
+
+def case_text(maxh: float, solver: str, steps: int) -> str:
+    """The example with mesh size ``maxh``, ``solver`` and ``steps`` steps, no field output."""
+    text = EXAMPLE.read_text()
+    text = re.sub(r"^maxh = .*$", f"maxh = {maxh}", text, flags=re.M)
+    text = re.sub(r"^T = .*$", f"T = {steps * 1.25e-5!r}", text, flags=re.M)
+    text = text.replace('family = "mini"', f'family = "mini"\nsolver = "{solver}"')
+    return re.sub(r"^every = 160 .*$", "vtk = false", text, flags=re.M)
+
+
+def measure(maxh: float, solver: str, ranks: int, steps: int, folder: Path) -> dict:
+    case = folder / f"tube_{maxh}_{solver}_{ranks}.toml"
+    case.write_text(case_text(maxh, solver, steps))
+    out = folder / case.stem
+    command = [sys.executable, "-m", "fsivsp.cli", "run", str(case), "--out", str(out), "--quiet"]
+    if ranks > 1:
+        command = ["/usr/bin/mpirun", "--allow-run-as-root", "-np", str(ranks), *command]
+    done = subprocess.run(["/usr/bin/time", "-v", *command], capture_output=True, text=True)
+    if done.returncode != 0:
+        return {"maxh": maxh, "solver": solver, "ranks": ranks, "failed": done.stderr.strip().splitlines()[-3:]}
+    summary = json.loads((out / "summary.json").read_text())
+    seconds, statistics = summary["seconds"], summary["solver"]
+    step = (seconds["total"] - seconds["setup"]) / steps
+    matvec = statistics.get("matvec_seconds")
+    peak = max(summary["ranks"]["peak_memory_bytes"]) if "ranks" in summary else summary["peak_memory_bytes"]
+    return {"maxh": maxh, "solver": statistics["method"], "ranks": ranks, "dofs": summary["dofs"]["free"],
+            "iterations": statistics.get("iterations"), "setup_seconds": seconds["setup"],
+            "solver_setup_seconds": statistics.get("setup_seconds"), "step_seconds": step,
+            "matvec_seconds": matvec, "step_matvecs": step / matvec if matvec else None,
+            "peak_bytes_per_rank": peak, "peak_bytes_total": sum(summary.get("ranks", {}).get(
+                "peak_memory_bytes", [summary["peak_memory_bytes"]]))}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--maxh", type=float, nargs="+", default=[0.1, 0.07])
+    parser.add_argument("--solvers", nargs="+", default=["petsc"])
+    parser.add_argument("--ranks", type=int, nargs="+", default=[1])
+    parser.add_argument("--steps", type=int, default=3)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    records = []
+    print(f"{'maxh':>6} {'solver':>10} {'ranks':>5} {'unknowns':>10} {'its':>6} {'set-up s':>9} {'s/step':>8} "
+          f"{'matvecs':>8} {'GiB/rank':>8}")
+    with tempfile.TemporaryDirectory() as folder:
+        for maxh in args.maxh:
+            for solver in args.solvers:
+                for ranks in args.ranks:
+                    r = measure(maxh, solver, ranks, args.steps, Path(folder))
+                    records.append(r)
+                    if "failed" in r:
+                        print(f"{maxh:6.3f} {solver:>10} {ranks:5d} failed: {r['failed']}", flush=True)
+                        continue
+                    its = r["iterations"]["mean"] if r["iterations"] else float("nan")
+                    matvecs = f"{r['step_matvecs']:8.0f}" if r["step_matvecs"] else f"{'–':>8}"
+                    print(f"{maxh:6.3f} {r['solver']:>10} {ranks:5d} {r['dofs']:10d} {its:6.1f} "
+                          f"{r['setup_seconds']:9.1f} {r['step_seconds']:8.2f} {matvecs} "
+                          f"{r['peak_bytes_per_rank'] / 2**30:8.2f}", flush=True)
+                    if args.json:
+                        args.json.write_text(json.dumps(records, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
