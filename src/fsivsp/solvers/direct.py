@@ -76,10 +76,11 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: step matrix, Taylor–Hood k = 2 (benchmarks/peer_hdg.md, "PARDISO's fallback"). The symmetric indefinite type
 #: (-2, Bunch–Kaufman pivoting inside supernodes; ``symmetric`` is set when the matrix is) with ``matching``
 #: (`MatchingPardiso`): without it the zero pivots of the pressure dofs on a Dirichlet wall are perturbed
-#: (10 to 130 on levels 0–5) and the residual grows 10× per level to 3e-9; with it no pivot is perturbed, the
-#: residual stays at UMFPACK's (2e-13 to 5e-13) and a solve is 2× faster (MKL's two automatic refinement steps
-#: after perturbed pivots are gone). ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum
-#: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
+#: (10 to 258 on levels 0–5) and the residual grows 10× per level to 3.1e-9; with it no pivot is perturbed, the
+#: residual stays at round-off (1.9e-13 to 1.1e-12; UMFPACK 1.4e-13 to 6.2e-13) and a solve is 1.3–2.5× faster
+#: (MKL's two automatic refinement steps after perturbed pivots are gone), for a 1.3–2.5× slower factorisation.
+#: ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum degree solves as fast as METIS here
+#: and factorises 1.2–1.4× faster.
 PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": True}
 
 #: The inverse type `MatchingPardiso` is registered under with NGSolve.
@@ -87,8 +88,9 @@ PARDISO_INVERSE = "fsivsp_pardiso"
 
 #: Steps of iterative refinement `factorise` retries PARDISO with when its residual check fails, before any
 #: other method (the same flags; each step one product with the matrix and one solve). Measured on the step
-#: matrix whose pivots were perturbed (no matching): one step brings 3.5e-10 to 3.3e-13 on level 4 (MKL's own
-#: refinement stops after two steps, at 3.5e-10 with up to 16 allowed).
+#: matrix whose pivots were perturbed (no matching): one step brings 3.5e-10 to 3.3e-13 on level 4, 3.1e-9 to
+#: 6.1e-13 on level 5 (MKL's own refinement stops after two steps, at 3.5e-10 with up to 16 allowed); two, for
+#: the retry runs only on factors worse than any measured.
 RETRY_REFINEMENT_STEPS = 2
 
 
