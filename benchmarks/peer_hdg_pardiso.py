@@ -24,7 +24,7 @@ VARIANTS = (
     ("PARDISO before (no matching)", "pardiso", {"matching": False}, 0),
     ("before + 1 refinement step", "pardiso", {"matching": False}, 1),
     ("before + 2 refinement steps", "pardiso", {"matching": False}, 2),
-    ("PARDISO after (matching)", "pardiso", None, 0),
+    ("PARDISO after (default: matching, as pivots were perturbed)", "pardiso", None, 0),
     ("UMFPACK", "umfpack", None, 0),
 )
 

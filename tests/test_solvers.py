@@ -326,7 +326,7 @@ def wall_pressure_system():
 @pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
 def test_pardiso_matching_and_refinement_reach_roundoff(wall_pressure_system):
     """Without matching PARDISO perturbs pivots and misses round-off (1.8e-11 measured); one refinement step
-    of those factors, or matching (the default), reaches it."""
+    of those factors, or matching (which the default takes here, for the perturbed pivots), reaches it."""
     matrix, free = wall_pressure_system
     plain = DirectSolver(matrix, free, method="pardiso", options={"matching": False})
     assert plain.perturbed_pivots > 0 and plain.residual > 5e-12
@@ -335,10 +335,22 @@ def test_pardiso_matching_and_refinement_reach_roundoff(wall_pressure_system):
     assert refined.statistics()["refinement"] == {"steps": 1, "residual_before": plain.residual}
     matched = DirectSolver(matrix, free, method="pardiso")
     assert matched.perturbed_pivots == 0 and matched.residual < 1e-12
-    assert matched.statistics()["perturbed_pivots"] == 0 and "refinement" not in matched.statistics()
+    stats = matched.statistics()
+    assert stats["perturbed_pivots"] == 0 and stats["matching"] is True and "refinement" not in stats
     b, x, y, zero = (matrix.CreateColVector() for _ in range(4))
     b.FV().NumPy()[:] = np.random.default_rng(5).standard_normal(len(b))
     zero[:] = 0.0
     refined.solve(b, x)
     refined.solve_step(b, zero, y)  # the same solve through MultAdd
     assert np.array_equal(x.FV().NumPy(), y.FV().NumPy())
+
+
+@pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
+def test_pardiso_matches_only_where_pivots_are_perturbed(systems):
+    """The paper's channel (no fluid Dirichlet wall) perturbs no pivot: the default factorises without
+    matching (which adds fill there), the same factors as ``matching = False``."""
+    X, a = systems(1)
+    default = DirectSolver(a.mat, X.FreeDofs(), method="pardiso")
+    plain = DirectSolver(a.mat, X.FreeDofs(), method="pardiso", options={"matching": False})
+    assert default.statistics()["matching"] is False and default.perturbed_pivots == 0
+    assert default.residual == plain.residual

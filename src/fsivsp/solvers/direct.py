@@ -20,7 +20,8 @@ Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
     Intel MKL PARDISO through NGSolve's binding (needs the ``mkl`` pip package, which
     NGSolve finds by itself; about 690 MB installed plus ~300 MB of Intel runtime
     libraries), with MKL's scaling and symmetric weighted matching for saddle points
-    (`MatchingPardiso`). The fastest factorisation and solve here.
+    where pivots had to be perturbed (`MatchingPardiso`). The fastest factorisation and
+    solve here.
 ``"umfpack"``
     SuiteSparse UMFPACK, built into the NGSolve wheels: LU with partial pivoting,
     safe on indefinite matrices. The default when MKL is not installed. (NGSolve's
@@ -75,13 +76,14 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: ``refinement``, ``symmetric`` and ``iparmN`` on to MKL's iparm), chosen by measurement on the peer case's
 #: step matrix, Taylor–Hood k = 2 (benchmarks/peer_hdg.md, "PARDISO's fallback"). The symmetric indefinite type
 #: (-2, Bunch–Kaufman pivoting inside supernodes; ``symmetric`` is set when the matrix is) with ``matching``
-#: (`MatchingPardiso`): without it the zero pivots of the pressure dofs on a Dirichlet wall are perturbed
-#: (10 to 258 on levels 0–5) and the residual grows 10× per level to 3.1e-9; with it no pivot is perturbed, the
-#: residual stays at round-off (1.9e-13 to 1.1e-12; UMFPACK 1.4e-13 to 6.2e-13) and a solve is 1.3–2.5× faster
-#: (MKL's two automatic refinement steps after perturbed pivots are gone), for a 1.3–2.5× slower factorisation.
-#: ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum degree solves as fast as METIS here
-#: and factorises 1.2–1.4× faster.
-PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": True}
+#: (`MatchingPardiso`) where pivots were perturbed: there (a fluid with a Dirichlet wall, whose pressure dofs
+#: meet zero pivots: 10 to 258 on levels 0–5) the residual grows 10× per level to 3.1e-9 without it, and stays at
+#: round-off with it (1.9e-13 to 1.1e-12; UMFPACK 1.4e-13 to 6.2e-13), no pivot perturbed, a solve 1.3–2.5×
+#: faster (MKL's two automatic refinement steps after perturbed pivots are gone) for a 1.3–2.5× slower
+#: factorisation. Where no pivot is perturbed (the paper's channel) matching only adds fill: 10% more factor
+#: entries and solve time on level 4. ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum
+#: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
+PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": "auto"}
 
 #: The inverse type `MatchingPardiso` is registered under with NGSolve.
 PARDISO_INVERSE = "fsivsp_pardiso"
@@ -225,13 +227,22 @@ class MatchingPardiso(MKLPardiso):
     """NGSolve's MKL PARDISO binding with scaling and symmetric weighted matching (iparm[10] = iparm[12] = 1,
     MKL's advice for saddle points) on the symmetric indefinite type too, where the binding's analysis turns
     matching off (and so ignores an ``iparm12`` flag). Matching pairs each zero-diagonal pressure dof with a
-    velocity dof in a 2×2 pivot. Flag ``matching = False`` keeps the binding's choice."""
+    velocity dof in a 2×2 pivot. Flag ``matching``: True, False (the binding's choice), or ``"auto"``: without,
+    and again with matching if a pivot had to be perturbed; ``matching`` is then the one used."""
 
-    matching = True
+    matching: bool | str = "auto"
 
     def _apply_flags(self, flags):
-        self.matching = bool(flags.get("matching", True))
+        self.matching = flags.get("matching", "auto")
         super()._apply_flags(flags)
+
+    def Analyze(self):
+        auto = self.matching == "auto"
+        self.matching = False if auto else bool(self.matching)
+        super().Analyze()
+        if auto and self.perturbed_pivots:
+            self.matching = True
+            super().Analyze()
 
     def _call_pardiso(self, phase):
         if phase == 12 and self.matching:  # analysis and factorisation, after `Analyze` set iparm[12]
@@ -412,8 +423,8 @@ class DirectSolver:
     Attributes
     ----------
     method, residual (NaN without check; after the refinement), residual_unrefined (of
-    the factors alone, checked with ``refinement`` only), perturbed_pivots (pardiso;
-    else None), factor_seconds, factors (the inverse the method built), inverse (an
+    the factors alone, checked with ``refinement`` only), perturbed_pivots and matching
+    (pardiso: the last factorisation's; else None), factor_seconds, factors (the inverse the method built), inverse (an
     NGSolve BaseMatrix, so ``x.data = solver.inverse * r`` works), freedofs.
     """
 
@@ -450,6 +461,7 @@ class DirectSolver:
             raise SolverError(f"{method}: factorisation failed: {exc}") from exc
         self.factor_seconds = time.perf_counter() - start
         self.perturbed_pivots = getattr(self.factors, "perturbed_pivots", None)
+        self.matching = getattr(self.factors, "matching", None)
         self.inverse = RefinedInverse(matrix, self.factors, refinement) if refinement else self.factors
         if check:
             self._check()
@@ -504,7 +516,7 @@ class DirectSolver:
         """What a run records of its solver."""
         stats = {"method": self.method, "residual": self.residual, "setup_seconds": self.factor_seconds}
         if self.perturbed_pivots is not None:
-            stats["perturbed_pivots"] = self.perturbed_pivots
+            stats["perturbed_pivots"], stats["matching"] = self.perturbed_pivots, self.matching
         if self.refinement:
             stats["refinement"] = {"steps": self.refinement, "residual_before": self.residual_unrefined}
         if self.fallback is not None:
