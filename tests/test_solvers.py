@@ -258,7 +258,7 @@ def test_factorise_falls_back_and_reports_a_singular_matrix():
 
 
 def test_factorise_never_changes_method_silently(monkeypatch, capsys):
-    """A forced residual failure of the preferred method (PARDISO, and PARDISO retried with more refinement)
+    """A forced residual failure of the preferred method (PARDISO, and PARDISO retried with refinement steps)
     is one line on stderr naming both methods and the residual, and is recorded in `statistics`."""
     from fsivsp.solvers import direct, factorise
 
@@ -278,3 +278,79 @@ def test_factorise_never_changes_method_silently(monkeypatch, capsys):
     assert solver.method == preferred[1] and solver.residual < 1e-10
     fallback = solver.statistics()["fallback"]
     assert fallback["from"] == preferred[0] and fallback["residual"] == 1e-3
+
+
+def test_factorise_retries_pardiso_with_refinement_in_one_line(monkeypatch, capsys):
+    """A forced failure of PARDISO's first check is retried with the same factors' refinement steps: one
+    line on stderr names both, and `statistics` keeps the fallback and the residual before the refinement."""
+    from fsivsp.solvers import direct, factorise
+
+    if "pardiso" not in available_methods():
+        pytest.skip("needs MKL PARDISO")
+    X, a = _system(_mesh(0))
+    real, calls = direct._free_residual, []
+
+    def forced(*args, **kwargs):
+        calls.append(1)
+        return 1e-3 if len(calls) == 1 else real(*args, **kwargs)
+
+    monkeypatch.setattr(direct, "_free_residual", forced)
+    solver = factorise(a.mat, X.FreeDofs())
+    lines = capsys.readouterr().err.strip().splitlines()
+    how = f"pardiso with {direct.RETRY_REFINEMENT_STEPS} refinement steps"
+    assert len(lines) == 1 and lines[0].startswith("fsivsp: direct solver: pardiso failed (residual 1.00e-03)")
+    assert how in lines[0]
+    stats = solver.statistics()
+    assert stats["fallback"]["to"] == how and stats["residual"] < 1e-12
+    assert stats["refinement"] == {"steps": direct.RETRY_REFINEMENT_STEPS, "residual_before": solver.residual_unrefined}
+
+
+@pytest.fixture(scope="module")
+def wall_pressure_system():
+    """The peer case's step matrix (examples/peer_hdg_example1.toml: Taylor–Hood k = 2, Δt = 1/1024, level 0,
+    105 free dofs), whose fluid has a Dirichlet wall: the pressure dofs there have zero pivots unless
+    PARDISO pairs them with velocity dofs (matching)."""
+    from pathlib import Path
+
+    from fsivsp.case import load_study_case, to_study
+    from fsivsp.solvers import compact
+    from fsivsp.study import dirichlet_boundaries
+
+    case = to_study(load_study_case(Path(__file__).resolve().parents[1] / "examples" / "peer_hdg_example1.toml"))
+    mesh = case.coarse_mesh()
+    spaces = build_spaces(mesh, "taylor_hood", 2, dirichlet_boundaries(mesh))
+    matrix = step_matrix(spaces, case.materials, case.time_scheme.tau(1 / 1024)).Assemble().mat
+    return compact(matrix), spaces.mixed.FreeDofs()
+
+
+@pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
+def test_pardiso_matching_and_refinement_reach_roundoff(wall_pressure_system):
+    """Without matching PARDISO perturbs pivots and misses round-off (1.8e-11 measured); one refinement step
+    of those factors, or matching (which the default takes here, for the perturbed pivots), reaches it."""
+    matrix, free = wall_pressure_system
+    plain = DirectSolver(matrix, free, method="pardiso", options={"matching": False})
+    assert plain.perturbed_pivots > 0 and plain.residual > 5e-12
+    refined = DirectSolver(matrix, free, method="pardiso", options={"matching": False}, refinement=1)
+    assert refined.residual < 1e-12 and refined.residual_unrefined == plain.residual
+    assert refined.statistics()["refinement"] == {"steps": 1, "residual_before": plain.residual}
+    matched = DirectSolver(matrix, free, method="pardiso")
+    assert matched.perturbed_pivots == 0 and matched.residual < 1e-12
+    stats = matched.statistics()
+    assert stats["perturbed_pivots"] == 0 and stats["matching"] is True and "refinement" not in stats
+    b, x, y, zero = (matrix.CreateColVector() for _ in range(4))
+    b.FV().NumPy()[:] = np.random.default_rng(5).standard_normal(len(b))
+    zero[:] = 0.0
+    refined.solve(b, x)
+    refined.solve_step(b, zero, y)  # the same solve through MultAdd
+    assert np.array_equal(x.FV().NumPy(), y.FV().NumPy())
+
+
+@pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
+def test_pardiso_matches_only_where_pivots_are_perturbed(systems):
+    """The paper's channel (no fluid Dirichlet wall) perturbs no pivot: the default factorises without
+    matching (which adds fill there), the same factors as ``matching = False``."""
+    X, a = systems(1)
+    default = DirectSolver(a.mat, X.FreeDofs(), method="pardiso")
+    plain = DirectSolver(a.mat, X.FreeDofs(), method="pardiso", options={"matching": False})
+    assert default.statistics()["matching"] is False and default.perturbed_pivots == 0
+    assert default.residual == plain.residual

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import sympy
 
 from .expressions import SPACE, T, ExpressionError, parse, parse_vector
+from .fields import expression_is_zero
 from .materials import Materials
 
 
@@ -67,9 +68,10 @@ class ExactSolution:
         return solution
 
     def check(self, field: str = "exact") -> None:
-        """Refuse a solution whose displacement is not a time integral of the velocity."""
+        """Refuse a solution whose displacement is not a time integral of the velocity (`expression_is_zero`:
+        ``simplify`` took 1.1 s of the peer case's 2.8 s study of levels 0–2)."""
         for i, (u_i, v_i) in enumerate(zip(self.displacement, self.velocity)):
-            if sympy.simplify(sympy.diff(u_i, T) - v_i) != 0:
+            if not expression_is_zero(sympy.diff(u_i, T) - v_i):
                 raise ManufacturedError(
                     f"{field}.displacement[{i}]: d/dt of the displacement must equal velocity[{i}] "
                     f"(got d/dt u = {sympy.diff(u_i, T)}, v = {v_i})")

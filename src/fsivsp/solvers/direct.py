@@ -10,12 +10,18 @@ interface (`fsivsp.solvers.StepSolver`, shared with the iterative solver):
 >>> x.data = solver.inverse * r                         # composes like NGSolve inverses
 >>> solver.solve(r, x)                                  # the same, as a method
 
+With ``refinement = k`` every solve is followed by k steps of iterative refinement
+against the matrix (`RefinedInverse`); `factorise` retries PARDISO so before it
+takes another method.
+
 Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
 
 ``"pardiso"``
-    Intel MKL PARDISO through NGSolve (needs the ``mkl`` pip package, which NGSolve
-    finds by itself; about 690 MB installed plus ~300 MB of Intel runtime libraries).
-    The fastest factorisation and solve here.
+    Intel MKL PARDISO through NGSolve's binding (needs the ``mkl`` pip package, which
+    NGSolve finds by itself; about 690 MB installed plus ~300 MB of Intel runtime
+    libraries), with MKL's scaling and symmetric weighted matching for saddle points
+    where pivots had to be perturbed (`MatchingPardiso`). The fastest factorisation and
+    solve here.
 ``"umfpack"``
     SuiteSparse UMFPACK, built into the NGSolve wheels: LU with partial pivoting,
     safe on indefinite matrices. The default when MKL is not installed. (NGSolve's
@@ -38,6 +44,7 @@ from typing import Any
 
 import numpy as np
 import ngsolve as ngs
+from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
 __all__ = [
@@ -65,18 +72,28 @@ PIVOTING_METHODS: frozenset[str] = frozenset({"pardiso", "umfpack", "scipy"})
 #: 197 s without; MMD_ATA is as fast as COLAMD.
 SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 
-#: Flags for NGSolve's MKL PARDISO inverse, chosen by measurement. NGSolve's own
-#: defaults (unsymmetric matrix type 11, up to 16 steps of iterative refinement at
-#: every solve) make a solve ~2x *slower* than sparsecholesky; the symmetric
-#: indefinite type (-2, Bunch-Kaufman pivoting; set automatically when the matrix is
-#: symmetric) with refinement 0 (MKL then refines automatically, two steps, only if
-#: pivots had to be perturbed) makes it ~2x faster. Minimum-degree ordering solves as
-#: fast as METIS here and factorises 1.4x faster.
-PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0}
+#: Flags for NGSolve's MKL PARDISO binding (`ngsolve.solvers.mkl_pardiso`, which passes ``ordering``,
+#: ``refinement``, ``symmetric`` and ``iparmN`` on to MKL's iparm), chosen by measurement on the peer case's
+#: step matrix, Taylor–Hood k = 2 (benchmarks/peer_hdg.md, "PARDISO's fallback"). The symmetric indefinite type
+#: (-2, Bunch–Kaufman pivoting inside supernodes; ``symmetric`` is set when the matrix is) with ``matching``
+#: (`MatchingPardiso`) where pivots were perturbed: there (a fluid with a Dirichlet wall, whose pressure dofs
+#: meet zero pivots: 10 to 258 on levels 0–5) the residual grows 10× per level to 3.1e-9 without it, and stays at
+#: round-off with it (1.9e-13 to 1.1e-12; UMFPACK 1.4e-13 to 6.2e-13), no pivot perturbed, a solve 1.3–2.5×
+#: faster (MKL's two automatic refinement steps after perturbed pivots are gone) for a 1.3–2.5× slower
+#: factorisation. Where no pivot is perturbed (the paper's channel) matching only adds fill: 10% more factor
+#: entries and solve time on level 4. ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum
+#: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
+PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": "auto"}
 
-#: What `factorise` retries PARDISO with when its residual check fails, before any other method: NGSolve's
-#: default of up to 16 iterative-refinement steps at every solve (slower solves, but the same factors).
-PARDISO_RETRY_FLAGS: dict[str, Any] = {"refinement": 16}
+#: The inverse type `MatchingPardiso` is registered under with NGSolve.
+PARDISO_INVERSE = "fsivsp_pardiso"
+
+#: Steps of iterative refinement `factorise` retries PARDISO with when its residual check fails, before any
+#: other method (the same flags; each step one product with the matrix and one solve). Measured on the step
+#: matrix whose pivots were perturbed (no matching): one step brings 3.5e-10 to 3.3e-13 on level 4, 3.1e-9 to
+#: 6.1e-13 on level 5 (MKL's own refinement stops after two steps, at 3.5e-10 with up to 16 allowed); two, for
+#: the retry runs only on factors worse than any measured.
+RETRY_REFINEMENT_STEPS = 2
 
 
 class SolverError(RuntimeError):
@@ -203,10 +220,89 @@ def _symmetrise_lower(lower):
 
 
 # ---------------------------------------------------------------------------
+# MKL PARDISO with matching, and refinement for any inverse
+
+
+class MatchingPardiso(MKLPardiso):
+    """NGSolve's MKL PARDISO binding with scaling and symmetric weighted matching (iparm[10] = iparm[12] = 1,
+    MKL's advice for saddle points) on the symmetric indefinite type too, where the binding's analysis turns
+    matching off (and so ignores an ``iparm12`` flag). Matching pairs each zero-diagonal pressure dof with a
+    velocity dof in a 2×2 pivot. Flag ``matching``: True, False (the binding's choice), or ``"auto"``: without,
+    and again with matching if a pivot had to be perturbed; ``matching`` is then the one used."""
+
+    matching: bool | str = "auto"
+
+    def _apply_flags(self, flags):
+        self.matching = flags.get("matching", "auto")
+        super()._apply_flags(flags)
+
+    def Analyze(self):
+        auto = self.matching == "auto"
+        self.matching = False if auto else bool(self.matching)
+        super().Analyze()
+        if auto and self.perturbed_pivots:
+            self.matching = True
+            super().Analyze()
+
+    def _call_pardiso(self, phase):
+        if phase == 12 and self.matching:  # analysis and factorisation, after `Analyze` set iparm[12]
+            self._params[10] = self._params[12] = 1
+        super()._call_pardiso(phase)
+
+    @property
+    def perturbed_pivots(self) -> int:
+        """MKL's count of perturbed pivots in the last factorisation (iparm[13])."""
+        return int(self._params[13])
+
+
+ngs.la.RegisterInverseType(PARDISO_INVERSE, MatchingPardiso)
+
+
+class _SquareOperator(ngs.BaseMatrix):
+    """An NGSolve BaseMatrix of the shape and vectors of ``template`` (a vector of the matrix)."""
+
+    def __init__(self, template):
+        super().__init__()
+        self._template = template
+
+    def IsComplex(self):
+        return False
+
+    def Height(self):
+        return len(self._template)
+
+    def Width(self):
+        return len(self._template)
+
+    def CreateRowVector(self):
+        return self._template.CreateVector()
+
+    def CreateColVector(self):
+        return self._template.CreateVector()
+
+
+class RefinedInverse(_SquareOperator):
+    """``inverse`` followed by ``steps`` of iterative refinement against ``matrix``, x ← x + A⁻¹(b − A x):
+    each step one product with A and one solve. A factorisation of A + E (perturbed pivots) then has its
+    error multiplied by ‖A⁻¹E‖ per step. ``inverse`` must, like NGSolve's, read and write free dofs only."""
+
+    def __init__(self, matrix, inverse, steps: int):
+        super().__init__(matrix.CreateColVector())
+        self.matrix, self.base, self.steps = matrix, inverse, steps
+        self._residual = matrix.CreateColVector()
+
+    def Mult(self, x, y):
+        y.data = self.base * x
+        for _ in range(self.steps):
+            self._residual.data = x - self.matrix * y
+            y.data += self.base * self._residual
+
+
+# ---------------------------------------------------------------------------
 # scipy SuperLU wrapped as an NGSolve BaseMatrix
 
 
-class ScipyLUInverse(ngs.BaseMatrix):
+class ScipyLUInverse(_SquareOperator):
     """``A_ff^{-1}`` from ``scipy.sparse.linalg.splu`` as an NGSolve BaseMatrix.
 
     ``Mult(x, y)`` sets ``y[free] = A_ff^{-1} x[free]`` and ``y[non-free] = 0``,
@@ -214,34 +310,16 @@ class ScipyLUInverse(ngs.BaseMatrix):
     """
 
     def __init__(self, matrix, freedofs, options: Mapping[str, Any] | None = None):
-        super().__init__()
+        super().__init__(matrix.CreateColVector())
         from scipy.sparse.linalg import splu
 
-        self._n = matrix.height
-        self._template = matrix.CreateColVector()
-        self._free = np.flatnonzero(free_mask(freedofs, self._n))
+        self._free = np.flatnonzero(free_mask(freedofs, matrix.height))
         full = to_scipy_csr(matrix)
         aff = full[self._free][:, self._free].tocsc()
         opts = dict(SCIPY_SPLU_OPTIONS)
         if options:
             opts.update(options)
         self.lu = splu(aff, **opts)
-
-    # BaseMatrix protocol
-    def IsComplex(self):
-        return False
-
-    def Height(self):
-        return self._n
-
-    def Width(self):
-        return self._n
-
-    def CreateRowVector(self):
-        return self._template.CreateVector()
-
-    def CreateColVector(self):
-        return self._template.CreateVector()
 
     def Mult(self, x, y):
         xs = x.FV().NumPy()
@@ -338,12 +416,16 @@ class DirectSolver:
     options
         Method-specific options: for "scipy" keyword arguments of ``splu``
         (overriding :data:`SCIPY_SPLU_OPTIONS`), for the NGSolve methods flags of
-        the inverse (e.g. ``{"symmetric": True}`` for pardiso).
+        the inverse (e.g. ``{"symmetric": True}`` or ``{"matching": False}`` for pardiso).
+    refinement
+        Steps of iterative refinement after every solve (`RefinedInverse`); 0: none.
 
     Attributes
     ----------
-    method, residual (NaN without check), factor_seconds, inverse (an NGSolve
-    BaseMatrix, so ``x.data = solver.inverse * r`` works), freedofs.
+    method, residual (NaN without check; after the refinement), residual_unrefined (of
+    the factors alone, checked with ``refinement`` only), perturbed_pivots and matching
+    (pardiso: the last factorisation's; else None), factor_seconds, factors (the inverse the method built), inverse (an
+    NGSolve BaseMatrix, so ``x.data = solver.inverse * r`` works), freedofs.
     """
 
     #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
@@ -357,6 +439,7 @@ class DirectSolver:
         check: bool = True,
         rtol: float = 1e-8,
         options: Mapping[str, Any] | None = None,
+        refinement: int = 0,
     ):
         method = default_method() if method is None else method
         if method not in METHODS:
@@ -365,46 +448,55 @@ class DirectSolver:
         self.matrix = matrix
         self.freedofs = freedofs
         self.rtol = rtol
-        self.residual = float("nan")
-        self.factor_seconds = float("nan")
+        self.refinement = refinement
+        self.residual = self.residual_unrefined = float("nan")
         self.fallback: dict | None = None   # set by `factorise` when a preferred method failed first
 
         start = time.perf_counter()
         try:
-            if method == "scipy":
-                self.inverse = ScipyLUInverse(matrix, freedofs, options)
-            else:
-                opts: dict[str, Any] = {}
-                if method == "pardiso":
-                    opts.update(PARDISO_FLAGS)
-                    opts["symmetric"] = is_symmetric(matrix)
-                opts.update(options or {})
-                flags = Flags(opts) if opts else None
-                target = matrix
-                if method == "umfpack" and _stores_lower_triangle(matrix):
-                    # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the
-                    # whole matrix: it fails (saddle point) or silently solves a wrong
-                    # system (SPD: residual ~1). Factorise a full-storage copy instead.
-                    target = full_storage_copy(matrix)
-                self.inverse = target.Inverse(freedofs, inverse=method, flags=flags)
-                self._factored_matrix = target
+            self.factors = self._factorise(options)
         except SolverError:
             raise
         except Exception as exc:  # noqa: BLE001 - any backend failure
             raise SolverError(f"{method}: factorisation failed: {exc}") from exc
         self.factor_seconds = time.perf_counter() - start
-
+        self.perturbed_pivots = getattr(self.factors, "perturbed_pivots", None)
+        self.matching = getattr(self.factors, "matching", None)
+        self.inverse = RefinedInverse(matrix, self.factors, refinement) if refinement else self.factors
         if check:
-            self.residual = _free_residual(
-                matrix, self.inverse, free_mask(freedofs, matrix.height), seed=20180101
+            self._check()
+
+    def _factorise(self, options: Mapping[str, Any] | None):
+        """The method's inverse of the matrix on the free dofs."""
+        matrix, method = self.matrix, self.method
+        if method == "scipy":
+            return ScipyLUInverse(matrix, self.freedofs, options)
+        opts: dict[str, Any] = {}
+        if method == "pardiso":
+            opts.update(PARDISO_FLAGS)
+            opts["symmetric"] = is_symmetric(matrix)
+        opts.update(options or {})
+        if method == "umfpack" and _stores_lower_triangle(matrix):
+            # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the
+            # whole matrix: it fails (saddle point) or silently solves a wrong
+            # system (SPD: residual ~1). Factorise a full-storage copy instead.
+            matrix = full_storage_copy(matrix)
+        inverse = PARDISO_INVERSE if method == "pardiso" else method
+        return matrix.Inverse(self.freedofs, inverse=inverse, flags=Flags(opts) if opts else None)
+
+    def _check(self) -> None:
+        """The residual check (`check`); with refinement the factors' own residual is kept too."""
+        mask = free_mask(self.freedofs, self.matrix.height)
+        self.residual = _free_residual(self.matrix, self.inverse, mask, seed=20180101)
+        if not self.residual < self.rtol:
+            raise SolverError(
+                f"{self.method}: residual check failed, ||b - A x|| / ||b|| = "
+                f"{self.residual:.3e} >= rtol = {self.rtol:.1e}"
+                + ("" if self.method in PIVOTING_METHODS else " (no pivoting: the matrix is indefinite?)"),
+                self.residual,
             )
-            if not self.residual < rtol:
-                raise SolverError(
-                    f"{method}: residual check failed, ||b - A x|| / ||b|| = "
-                    f"{self.residual:.3e} >= rtol = {rtol:.1e}"
-                    + ("" if method in PIVOTING_METHODS else " (no pivoting: the matrix is indefinite?)"),
-                    self.residual,
-                )
+        if self.refinement:
+            self.residual_unrefined = _free_residual(self.matrix, self.factors, mask, seed=20180101)
 
     def solve(self, rhs, out) -> None:
         """``out[free] = A_ff^{-1} rhs[free]``, ``out[non-free] = 0``."""
@@ -423,6 +515,10 @@ class DirectSolver:
     def statistics(self) -> dict:
         """What a run records of its solver."""
         stats = {"method": self.method, "residual": self.residual, "setup_seconds": self.factor_seconds}
+        if self.perturbed_pivots is not None:
+            stats["perturbed_pivots"], stats["matching"] = self.perturbed_pivots, self.matching
+        if self.refinement:
+            stats["refinement"] = {"steps": self.refinement, "residual_before": self.residual_unrefined}
         if self.fallback is not None:
             stats["fallback"] = self.fallback
         return stats
@@ -441,25 +537,25 @@ class DirectSolver:
 def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None = None) -> DirectSolver:
     """A checked `DirectSolver`: the given ``method``, or else the available methods in order of
     preference (pivoting ones first), taking the first whose residual check passes; PARDISO is retried with
-    `PARDISO_RETRY_FLAGS` first. A method other than the first is never taken silently: one line on stderr
-    names both methods and the first one's residual, and ``solver.fallback`` (in `statistics`) records it.
-    A singular matrix fails them all: the `SolverError` then lists every method's failure."""
+    `RETRY_REFINEMENT_STEPS` of iterative refinement first. A method other than the first is never taken
+    silently: one line on stderr names both methods and the first one's residual, and ``solver.fallback`` (in
+    `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists every failure."""
     if method is not None:
         return DirectSolver(matrix, freedofs, method=method)
     failures: list[SolverError] = []
     candidates = [m for m in METHODS if m in PIVOTING_METHODS and m in available_methods()]
-    attempts = [(m, None) for m in candidates]
+    attempts = [(m, 0) for m in candidates]
     if "pardiso" in candidates:
-        attempts.insert(1, ("pardiso", PARDISO_RETRY_FLAGS))
-    for candidate, options in attempts:
+        attempts.insert(1, ("pardiso", RETRY_REFINEMENT_STEPS))
+    for candidate, steps in attempts:
         try:
-            solver = DirectSolver(matrix, freedofs, method=candidate, options=options)
+            solver = DirectSolver(matrix, freedofs, method=candidate, refinement=steps)
         except SolverError as error:
             failures.append(error)
             continue
         if failures:
             first = failures[0]
-            how = candidate + (f" with {options}" if options else "")
+            how = candidate + (f" with {steps} refinement steps" if steps else "")
             solver.fallback = {"from": candidates[0], "to": how, "residual": first.residual, "reason": str(first)}
             print(f"fsivsp: direct solver: {candidates[0]} failed (residual {first.residual:.2e}), "
                   f"using {how} (residual {solver.residual:.2e})", file=sys.stderr)
