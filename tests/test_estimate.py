@@ -112,3 +112,19 @@ def test_less_free_space_than_the_output_is_refused(tmp_path, tiny_disk, capsys,
     assert len(err) == 1 and err[0].startswith(f"error: fsivsp run: --out {out}: 0.7 MB free, expected at least "
                                                "the estimated output "), err
     assert not no_run and not list(tiny_disk.iterdir())
+
+
+def test_files_already_in_the_folder_count_as_free(tiny_disk):
+    """A run into a folder (or resumed there) replaces its files: their bytes count as free."""
+    out = tiny_disk / "out"
+    out.mkdir()
+    before = estimate.free_space(out)
+    (out / "old.vtu").write_bytes(b"x" * 100_000)
+    assert abs(estimate.free_space(out) - before) <= 4096 and before > 600_000   # one block of the tmpfs
+
+
+def test_help_names_the_new_options(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = capsys.readouterr().out
+    assert "--dry-run" in text and "--force" in text and "MemAvailable" in text

@@ -4,12 +4,15 @@
 The unknowns are the free dofs of X_h = V_h × Q_h (Section 5.2), counted on the case's mesh and spaces without
 assembling anything. The other figures are measured laws, fitted on this 2-core machine (the tables below):
 
-- memory = `BASELINE` + N · b(N), with b(N) = b₀ (N/N₀)^γ the bytes per unknown of the chosen solver (γ > 0 for a
-  3D factorisation, whose fill grows faster than N); the whole process at its peak (ru_maxrss), one rank;
+- memory = `BASELINE` + N · b(N) · (Taylor–Hood's factor) + the VTK output's part, with b(N) = b₀ (N/N₀)^γ the
+  bytes per unknown of the chosen solver (γ = 1/3 for a 3D factorisation, whose fill grows faster than N; N/N₀
+  divided by the domain's `aspect` there); the whole process at its peak (ru_maxrss); under mpirun the sum over
+  the ranks (compared with one machine's MemAvailable);
 - time per step = t₀ (N/N₀)^α, a power law through two rows of BENCHMARKS.md per solver (indicative only: the
   machine's speed drifts by 2–3× between sessions);
 - output = the VTU files, the checkpoints kept (2, and one being written), the CSV files, the plots and
-  ``summary.json``, from bytes per stored value measured on the VTU and checkpoint files of the tests' cases.
+  ``summary.json``, from bytes per stored value measured on the VTU and checkpoint files of the tests' cases;
+  what the folder already holds is replaced, not added (`free_space` counts it as free).
 """
 from __future__ import annotations
 
@@ -185,22 +188,29 @@ def estimate(case) -> Estimate:
                     power_law(SECONDS_PER_STEP, case.dim, solver, unknowns), case.steps, output_bytes(case, unknowns))
 
 
-def available_memory() -> int | None:
-    """MemAvailable of /proc/meminfo in bytes (None where there is none)."""
+def proc_bytes(path: str, key: str) -> int | None:
+    """The ``key:  N kB`` line of a Linux /proc file in bytes (None where there is none)."""
     try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
+        for line in Path(path).read_text().splitlines():
+            if line.startswith(f"{key}:"):
                 return int(line.split()[1]) * 1024
     except OSError:
         pass
     return None
 
 
+def available_memory() -> int | None:
+    """MemAvailable of /proc/meminfo in bytes (None where there is none)."""
+    return proc_bytes("/proc/meminfo", "MemAvailable")
+
+
 def free_space(out: Path) -> int:
-    """Bytes free to this user on the filesystem of ``out`` (or of its nearest existing parent)."""
+    """Bytes free to this user on the filesystem of ``out`` (or of its nearest existing parent), plus the files
+    already in ``out`` (a run into it, or resumed, replaces them)."""
     existing = next(p for p in (out, *out.absolute().parents) if p.exists())
     stat = os.statvfs(existing)
-    return stat.f_bavail * stat.f_frsize
+    held = sum(p.stat().st_size for p in out.rglob("*") if p.is_file()) if out.is_dir() else 0
+    return stat.f_bavail * stat.f_frsize + held
 
 
 def refusals(figures: Estimate, out: Path) -> list[str]:
