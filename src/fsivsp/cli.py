@@ -376,8 +376,9 @@ def check_output_folder(out: Path) -> None:
 
 
 def run_command(args) -> int:
-    """``fsivsp run``: exit 0, 2 (bad input), 3 (not converged), 4 (a file could not be written), 130/143
-    (SIGINT/SIGTERM: the current step finished and checkpointed; during set-up at once, nothing written)."""
+    """``fsivsp run``: exit 0, 2 (bad input, or a run the estimate says does not fit: `estimate.before_run`),
+    3 (not converged), 4 (a file could not be written), 130/143 (SIGINT/SIGTERM: the current step finished and
+    checkpointed; during set-up at once, nothing written)."""
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
     from .estimate import before_run

@@ -104,7 +104,7 @@ class Estimate:
     def line(self) -> str:
         """The one line ``fsivsp run`` prints before set-up."""
         return (f"estimate: {count(self.unknowns)} unknowns ({self.solver}), {gib(self.memory)} memory, "
-                f"{self.seconds_per_step:.2g} s per step, {megabytes(self.output)} output")
+                f"{seconds(self.seconds_per_step)} per step, {megabytes(self.output)} output")
 
 
 def count(number: int) -> str:
@@ -114,6 +114,11 @@ def count(number: int) -> str:
 
 def gib(size: float) -> str:
     return f"{size / 2**30:.2f} GiB"
+
+
+def seconds(time: float) -> str:
+    """0.00034 s, 0.024 s, 2.1 s, 140 s."""
+    return f"{time:.2g} s" if time < 100 else f"{time:.0f} s"
 
 
 def megabytes(size: float) -> str:
@@ -230,8 +235,8 @@ def report(figures: Estimate, out: Path) -> str:
     """``--dry-run``: the figures, one per line, and what `refusals` would stop."""
     lines = [f"unknowns: {count(figures.unknowns)} (solver {figures.solver})",
              f"estimated memory: {gib(figures.memory)}",
-             f"estimated time per step: {figures.seconds_per_step:.2g} s ({figures.steps} steps: "
-             f"{figures.seconds_per_step * figures.steps:.3g} s)",
+             f"estimated time per step: {seconds(figures.seconds_per_step)} ({figures.steps} steps: "
+             f"{seconds(figures.seconds_per_step * figures.steps)})",
              f"estimated output: {megabytes(figures.output)} in {out}"]
     return "\n".join(lines + [f"would refuse: {reason}; --force runs anyway" for reason in refusals(figures, out)])
 
