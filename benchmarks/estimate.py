@@ -3,8 +3,9 @@
 
     PYTHONPATH=src .venv/bin/python benchmarks/estimate.py [NAME ...] --json benchmarks/estimate.json
 
-Each case is an example's geometry and materials with a few steps of zero data (`CASES`), run in a process of
-its own (``--force``, so that the estimate does not stop it).
+Each case is an example's geometry, materials and boundaries with a few steps (`CASES`), run in a process of
+its own (``--force``, so that the estimate does not stop it). BENCHMARKS.md, "The estimate before set-up", has the
+figures.
 """
 from __future__ import annotations
 
@@ -73,9 +74,11 @@ def measure(name: str, folder: Path) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("names", nargs="*", default=list(CASES), choices=[[], *CASES], metavar="NAME")
+    parser.add_argument("names", nargs="*", metavar="NAME", help=f"cases (default all): {', '.join(CASES)}")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
+    if unknown := set(args.names) - set(CASES):
+        parser.error(f"NAME: expected some of {', '.join(CASES)}, got {', '.join(sorted(unknown))}")
     rows = []
     with tempfile.TemporaryDirectory() as folder:
         for name in args.names or list(CASES):
