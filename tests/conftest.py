@@ -28,3 +28,18 @@ def _discrete_divergence(scheme) -> float:
 def discrete_divergence():
     """The norm of (∫_F q_i div v_h)_i for the scheme's current velocity (zero if discretely divergence-free)."""
     return _discrete_divergence
+
+
+@pytest.fixture
+def tiny_disk(tmp_path):
+    """A folder on a 700 kB tmpfs (a nearly full disk); skipped where this user cannot mount one."""
+    import subprocess
+
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=700k", "tmpfs", str(disk)], capture_output=True,
+                          text=True)
+    if done.returncode:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    yield disk
+    subprocess.run(["umount", str(disk)], check=False)

@@ -207,3 +207,18 @@ def test_second_order_mesh_file_is_refused(tmp_path):
     ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert ours == [f"error: mesh file {mesh_file}: second-order cells are not supported under mpirun "
                     "(run serially, or write the file with first-order cells)"], done.stderr
+
+
+@needs_mpi
+def test_estimate_and_free_space_refusal_are_one_message(tmp_path, tiny_disk):
+    """On 2 ranks: the estimate line once, then less free space than the output: one error line, exit 2, nothing
+    written."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("T = 2.5e-4", "T = 2e-3").replace("every = 5\nprobes",
+                                                                                      "every = 1\nprobes"))
+    done = mpirun("run", str(case), "--out", str(tiny_disk / "out"))
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith(("estimate:", "error:"))]
+    assert len(ours) == 2 and ours[0].startswith("estimate: 1 799 unknowns (iterative)"), done.stderr
+    assert ours[1].startswith(f"error: fsivsp run: --out {tiny_disk / 'out'}: 0.7 MB free"), done.stderr
+    assert not list(tiny_disk.iterdir())

@@ -184,7 +184,11 @@ def build_parser() -> Parser:
     run.add_argument("case", type=Path, metavar="CASE.toml", help="the case file")
     run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
     run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
-    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--quiet", action="store_true", help="no progress bar, no estimate line")
+    run.add_argument("--dry-run", action="store_true",
+                     help="print the unknowns and the estimated memory, time per step and output size; run nothing")
+    run.add_argument("--force", action="store_true",
+                     help="run even when the estimated memory exceeds MemAvailable or the output the free space")
     threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
@@ -372,10 +376,12 @@ def check_output_folder(out: Path) -> None:
 
 
 def run_command(args) -> int:
-    """``fsivsp run``: exit 0, 2 (bad input), 3 (not converged), 4 (a file could not be written), 130/143
-    (SIGINT/SIGTERM: the current step finished and checkpointed; during set-up at once, nothing written)."""
+    """``fsivsp run``: exit 0, 2 (bad input, or a run the estimate says does not fit: `estimate.before_run`),
+    3 (not converged), 4 (a file could not be written), 130/143 (SIGINT/SIGTERM: the current step finished and
+    checkpointed; during set-up at once, nothing written)."""
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
+    from .estimate import before_run
     from .run import SolveDiverged, Terminated, load_run_case, raise_terminated, run_case
 
     previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
@@ -383,6 +389,8 @@ def run_command(args) -> int:
         case = parallel.shared_case(load_run_case, args.case)
         out = args.out or Path(args.case.stem)
         check_output_folder(out)
+        if before_run(case, out, dry_run=args.dry_run, force=args.force, quiet=args.quiet):
+            return 0
         with using(args.threads or case.discretisation.threads) as threads:
             summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
     except (SolveDiverged, NotConverged) as error:

@@ -262,12 +262,10 @@ def check_distributed(case: RunCase) -> None:
 def peak_memory() -> int:
     """The peak resident memory of this process so far, in bytes: Linux's VmHWM (``ru_maxrss`` of a forked
     child starts from its parent's peak: 1 510 MiB reported for a child that used 8.7 MB)."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) * 1024
-    except OSError:
-        pass
+    from .estimate import proc_bytes
+
+    if (peak := proc_bytes("/proc/self/status", "VmHWM")) is not None:
+        return peak
     import resource
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
