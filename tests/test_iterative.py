@@ -126,6 +126,23 @@ def test_not_converged_is_an_error():
         run_level(case, refined(case.coarse_mesh(), 0, False), 0)
 
 
+def test_zero_data_is_a_zero_solution():
+    """All data zero: every step's right-hand side vanishes; the solver returns zero in 0 iterations (MinRes,
+    given a zero norm to start from, divided by it)."""
+    from fsivsp.manufactured import ExactSolution
+    from fsivsp.scheme import Scheme
+    from fsivsp.study import manufactured_data
+
+    case = paper_case(1e-2, solver="iterative")
+    spaces = discretise(case, refined(case.coarse_mesh(), 0, False))[0].spaces
+    zero = ExactSolution.parse(["0", "0"], "0", ["0", "0"], 2)
+    scheme = Scheme(spaces, case.materials, manufactured_data(zero, case.materials, spaces.dirichlet,
+                                                              case.initial_stress), case.dt, solver="iterative")
+    scheme.march(2)
+    assert scheme.solver.iterations == [0, 0]
+    assert np.abs(scheme.state.vec.FV().NumPy()).max() == 0.0
+
+
 def test_cli_paper_iterative(tmp_path, capsys):
     out = tmp_path / "paper.json"
     assert main(["paper", "--dt", "1e-1", "--levels", "0-1", "--solver", "iterative", "--json", str(out),

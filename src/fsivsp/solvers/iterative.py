@@ -148,13 +148,18 @@ class IterativeSolver:
               guess: ngs.BaseVector | None = None) -> None:
         """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself)."""
         increment = self._increment
+        self._work.data = self.preconditioner.mat * rhs
+        scale = sqrt(max(ngs.InnerProduct(self._work, rhs), 0.0))
+        if scale == 0:  # a zero right-hand side: the increment is zero (MinRes would divide by its norm)
+            self.iterations.append(0)
+            self.residual = 0.0
+            out.data = boundary
+            return
         if guess is None:
             increment[:] = 0.0
         else:
             increment.data = self._free * guess
-        self._work.data = self.preconditioner.mat * rhs
-        scale = sqrt(max(ngs.InnerProduct(self._work, rhs), 0.0))
-        self._minres.atol = self.tol * scale if scale > 0 else 1e-300
+        self._minres.atol = self.tol * scale
         self._minres.Solve(rhs, increment, initialize=False)
         self.iterations.append(self._minres.iterations)
         self.residual = self._minres.residuals[-1] / scale if scale > 0 else 0.0
