@@ -31,7 +31,7 @@ from .quadratic import curve
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
-OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk"}
+OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk", "continuous"}
 CHECKPOINT_KEYS = {"every"}
 #: ``[geometry] refine``: uniform refinements of the generated or read mesh (each multiplies the cells by 2^d)
 MAX_REFINE = 6
@@ -82,6 +82,13 @@ def _points(value, field_name: str, dim: int) -> list[tuple[float, ...]]:
     return points
 
 
+def _flag(table: dict, key: str, default: bool) -> bool:
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise CaseError(f"output.{key}: expected true or false, got {value!r}")
+    return value
+
+
 def read_output(table: dict, dim: int) -> dict[str, Any]:
     check_keys(table, OUTPUT_KEYS, "output")
     lines = []
@@ -90,14 +97,12 @@ def read_output(table: dict, dim: int) -> dict[str, Any]:
             raise CaseError(f"output.lines[{i}]: expected {{start = [...], end = [...], n = N}}, got {line!r}")
         start, end = _points([line["start"], line["end"]], f"output.lines[{i}]", dim)
         lines.append((start, end, _whole(line, "n", f"output.lines[{i}]", 20)))
-    vtk = table.get("vtk", True)
-    if not isinstance(vtk, bool):
-        raise CaseError(f"output.vtk: expected true or false, got {vtk!r}")
+    vtk, continuous = (_flag(table, key, default) for key, default in (("vtk", True), ("continuous", False)))
     subdivision = table.get("subdivision", 0)
     if isinstance(subdivision, bool) or not isinstance(subdivision, int) or not 0 <= subdivision <= 3:
         raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
     return {"every": _whole(table, "every", "output", 10), "probes": _points(table.get("probes", []), "output.probes", dim),
-            "lines": lines, "vtk": vtk, "subdivision": subdivision}
+            "lines": lines, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
 
 
 def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
@@ -278,7 +283,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     from tqdm.auto import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
-    from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
+    from .output import Probes, VTKSeries, energy_plot, line_plot, probe_plot, scheme_fields, write_summary
     from .solvers import NotConverged
     from .spaces import global_count
     from .threads import current as current_threads
@@ -292,7 +297,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     setup = clock.perf_counter() - started
     fields, stress = scheme_fields(scheme)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
-                       refresh=stress) if case.output["vtk"] else None
+                       refresh=stress, continuous=case.output["continuous"]) if case.output["vtk"] else None
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
     history = {"time": [], "energy": []}
     resumed_from = None
@@ -319,6 +324,8 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             energy_plot(history["time"], history["energy"], out / "energy.png")
             if case.output["probes"]:
                 probe_plot(probes, out / "probes.png")
+            if case.output["lines"]:
+                line_plot(probes, out / "lines.png")
         spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
         summary = {
             "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
