@@ -32,6 +32,7 @@ COMMANDS = {
     "fsivsp matrix --readme docs/verification.md": PARSE,
     "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-3 --json study.json": RUN,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d --resume": RUN,
+    "fsivsp run examples/pressure_wave_2d.toml --out sweep --set time.T=1e-4 --set materials.nu=0.01": RUN,
     "fsivsp run examples/cad_3d.toml --out cad3d": RUN,
     "fsivsp run examples/large_ball_3d.toml --out large_ball": PARSE,  # its coarse mesh runs in test_run.py
     "fsivsp paper --dt 1e-2 --levels 0-4": PARSE,

@@ -57,3 +57,30 @@ def test_continuous_output_from_the_case_file_and_the_line_plot(tmp_path):
 def test_continuous_must_be_a_boolean(tmp_path, capsys):
     assert run(write_case(tmp_path, "continuous = 1\n"), tmp_path / "out") == 2
     assert capsys.readouterr().err.strip() == "error: output.continuous: expected true or false, got 1"
+
+
+def test_set_overrides_case_keys_and_is_recorded(tmp_path):
+    """``--set`` replaces keys before validation (nested, strings as bare words) and summary.json records them."""
+    out = tmp_path / "out"
+    assert run(write_case(tmp_path), out, "--set", "time.dt=0.005", "--set", "materials.nu=0.01",
+               "--set", "discretisation.family=taylor_hood", "--set", 'boundary.fluid_wall.velocity=["0", "0"]') == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["step"] == 4 and summary["inputs"]["dt"] == 0.005 and summary["inputs"]["family"] == "taylor_hood"
+    assert summary["inputs"]["materials"]["nu"] == 0.01
+    assert summary["overrides"] == {"time.dt": 0.005, "materials.nu": 0.01, "discretisation.family": "taylor_hood",
+                                    "boundary.fluid_wall.velocity": ["0", "0"]}
+
+
+@pytest.mark.parametrize("option, message", [
+    ("time.dtt=1", "time.dtt: unknown key (did you mean 'dt'?); expected one of T, dt, scheme, theta"),
+    ("time.dt=-1", "time.dt: expected a positive number, got -1"),
+    ("materials.nu", "--set: expected SECTION.KEY=VALUE (e.g. time.dt=1e-4), got 'materials.nu'"),
+    ("dt=1", "--set: expected SECTION.KEY=VALUE (e.g. time.dt=1e-4), got 'dt=1'"),
+    ("time.dt=[1,", "--set time.dt: expected a TOML value (a number, true/false, \"text\", [...]), got '[1,'"),
+    ("time.T.x=1", "--set time.T.x: time.T is not a table in the case file"),
+    ("mesh.kind=1", "mesh: unknown section; expected one of boundary, checkpoint, data, "
+     "discretisation, geometry, materials, output, solver, time"),
+])
+def test_bad_set_is_one_line_exit_2(tmp_path, capsys, option, message):
+    assert run(write_case(tmp_path), tmp_path / "out", "--set", option) == 2
+    assert capsys.readouterr().err.strip() == f"error: {message}"

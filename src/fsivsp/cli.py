@@ -185,6 +185,9 @@ def build_parser() -> Parser:
     run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
     run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--set", action="append", default=[], dest="overrides",
+                     metavar="SECTION.KEY=VALUE", help="override a case-file key with a TOML value, e.g. "
+                     "--set time.dt=1e-4 (validated like the file, recorded in summary.json; repeatable)")
     threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
@@ -376,11 +379,12 @@ def run_command(args) -> int:
     (SIGINT/SIGTERM: the current step finished and checkpointed; during set-up at once, nothing written)."""
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
+    from .overrides import parse_overrides
     from .run import SolveDiverged, Terminated, load_run_case, raise_terminated, run_case
 
     previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
     try:
-        case = parallel.shared_case(load_run_case, args.case)
+        case = parallel.shared_case(load_run_case, args.case, overrides=parse_overrides(args.overrides))
         out = args.out or Path(args.case.stem)
         check_output_folder(out)
         with using(args.threads or case.discretisation.threads) as threads:

@@ -23,9 +23,10 @@ import numpy as np
 
 from . import parallel
 from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_geometry, read_materials,
-                   read_time, read_toml, section)
+                   read_time, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
+from .overrides import case_document
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
 from .quadratic import curve
 
@@ -50,6 +51,7 @@ class RunCase(CaseFile):
     output: dict[str, Any]
     checkpoint_every: int
     mesh: Any = field(default=None, repr=False)
+    overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
 
     @property
     def steps(self) -> int:
@@ -129,9 +131,10 @@ def check_boundaries(boundaries: dict, mesh) -> None:
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
 
 
-def load_run_case(path: str | Path) -> RunCase:
-    """Read and validate every field of a production case, including the mesh's boundary names."""
-    doc = read_toml(path)
+def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
+    """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
+    {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
+    path, doc = case_document(source, overrides)
     check_keys(doc, RUN_SECTIONS, "")
     geometry, dim = read_geometry(section(doc, "geometry"))
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
@@ -153,7 +156,8 @@ def load_run_case(path: str | Path) -> RunCase:
     if refine:
         mesh = refined(mesh, refine, disc.curved)
     check_boundaries(boundaries, mesh)
-    return RunCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh)
+    return RunCase(path, geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh,
+                   dict(overrides or {}))
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
@@ -328,7 +332,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 line_plot(probes, out / "lines.png")
         spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
         summary = {
-            "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
+            "case": str(case.path), "overrides": case.overrides, "status": status, "step": scheme.n, "time": scheme.time,
             "inputs": {"geometry": case.geometry, "materials": case.materials.as_dict(), "T": case.T, "dt": case.dt,
                        "scheme": case.time_scheme.name, "theta": case.time_scheme.theta,
                        "family": case.discretisation.family, "order": case.discretisation.order},
