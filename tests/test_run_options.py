@@ -84,3 +84,27 @@ def test_set_overrides_case_keys_and_is_recorded(tmp_path):
 def test_bad_set_is_one_line_exit_2(tmp_path, capsys, option, message):
     assert run(write_case(tmp_path), tmp_path / "out", "--set", option) == 2
     assert capsys.readouterr().err.strip() == f"error: {message}"
+
+
+def test_python_run_returns_the_summary(tmp_path):
+    """``fsivsp.run`` takes a path or a dict (with overrides) and returns what summary.json holds."""
+    import tomllib
+
+    import fsivsp
+    import fsivsp.run  # the submodule does not hide the function
+    from fsivsp.run import run_case  # noqa: F401
+
+    out = tmp_path / "out"
+    summary = fsivsp.run(write_case(tmp_path), out, overrides={"time.T": 0.01}, quiet=True)
+    assert summary == json.loads((out / "summary.json").read_text())
+    assert summary["step"] == 1 and summary["overrides"] == {"time.T": 0.01}
+    assert fsivsp.run(tomllib.loads(CASE), tmp_path / "dict", quiet=True)["step"] == 2
+    with pytest.raises(fsivsp.CaseError, match="^time.dt: expected a positive number, got 0$"):
+        fsivsp.run(write_case(tmp_path), out, overrides={"time.dt": 0})
+
+
+def test_quiet_keeps_the_final_line(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert run(write_case(tmp_path), out) == 0
+    captured = capsys.readouterr()
+    assert captured.out == f"completed: 2 steps to t = 0.02 on 1 thread; results in {out}\n"

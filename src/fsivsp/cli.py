@@ -380,15 +380,14 @@ def run_command(args) -> int:
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
     from .overrides import parse_overrides
-    from .run import SolveDiverged, Terminated, load_run_case, raise_terminated, run_case
+    from .run import SolveDiverged, Terminated, raise_terminated
+    from .runner import run
 
     previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
     try:
-        case = parallel.shared_case(load_run_case, args.case, overrides=parse_overrides(args.overrides))
         out = args.out or Path(args.case.stem)
-        check_output_folder(out)
-        with using(args.threads or case.discretisation.threads) as threads:
-            summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
+        summary = run(args.case, out, overrides=parse_overrides(args.overrides), resume=args.resume,
+                      quiet=args.quiet, threads=args.threads)
     except (SolveDiverged, NotConverged) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
@@ -403,6 +402,7 @@ def run_command(args) -> int:
         return stop.exit_code
     finally:
         signal.signal(signal.SIGTERM, previous)
+    threads = summary["threads"]
     print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
           f"thread{'s' * (threads > 1)}; results in {out}")
     return 0
