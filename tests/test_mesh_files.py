@@ -381,7 +381,7 @@ def test_plane_step_file_is_2d(tmp_path):
 def test_run_on_the_step_example(tmp_path):
     case = tmp_path / "cad.toml"
     case.write_text((EXAMPLES / "cad_3d.toml").read_text()
-                    .replace('path = "examples/cylinder_in_box.step"', f'path = "{STEP}"').replace("T = 0.05", "T = 0.03"))
+                    .replace('path = "cylinder_in_box.step"', f'path = "{STEP}"').replace("T = 0.05", "T = 0.03"))
     out = tmp_path / "out"
     assert main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())

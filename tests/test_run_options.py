@@ -108,3 +108,33 @@ def test_quiet_keeps_the_final_line(tmp_path, capsys):
     assert run(write_case(tmp_path), out) == 0
     captured = capsys.readouterr()
     assert captured.out == f"completed: 2 steps to t = 0.02 on 1 thread; results in {out}\n"
+
+
+MESH_CASE = CASE.replace('kind = "fluid_over_solid"\ndim = 2\nmaxh = 0.25', 'kind = "mesh"\ndim = 2\npath = "{path}"')
+
+
+def test_relative_paths_are_the_case_files(tmp_path, monkeypatch, capsys):
+    """A relative ``path`` is read from the case file's folder, whatever the working directory; an absolute one
+    as it is; one that exists only from the working directory is used with a one-line note."""
+    from fsivsp.geometry import build_geometry
+
+    folder, elsewhere = tmp_path / "cases", tmp_path / "elsewhere"
+    (folder / "meshes").mkdir(parents=True)
+    elsewhere.mkdir()
+    build_geometry("fluid_over_solid", 2, 0.25).ngmesh.Save(str(folder / "meshes" / "layers.vol"))
+    monkeypatch.chdir(elsewhere)
+    case = folder / "case.toml"
+    case.write_text(MESH_CASE.replace("{path}", "meshes/layers.vol"))
+    assert run(case, "out") == 0
+    summary = json.loads((elsewhere / "out" / "summary.json").read_text())
+    assert summary["inputs"]["geometry"]["path"] == str(folder / "meshes" / "layers.vol")
+    case.write_text(MESH_CASE.replace("{path}", str(folder / "meshes" / "layers.vol")))
+    assert run(case, "out") == 0
+    monkeypatch.chdir(folder)
+    other = tmp_path / "other.toml"
+    other.write_text(MESH_CASE.replace("{path}", "meshes/layers.vol"))
+    capsys.readouterr()
+    assert run(other, "out") == 0
+    assert capsys.readouterr().err == (f"note: geometry.path: meshes/layers.vol is not in the case file's folder "
+                                       f"{tmp_path}; using meshes/layers.vol relative to the working directory "
+                                       "(write it relative to the case file)\n")

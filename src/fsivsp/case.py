@@ -8,6 +8,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -210,13 +211,31 @@ class StudyCase(CaseFile):
     exact: Any = None
 
 
-def read_geometry(table: dict) -> tuple[dict, int]:
+def read_geometry(table: dict, folder: Path = Path(".")) -> tuple[dict, int]:
+    """The geometry table, its ``path`` resolved from ``folder`` (the case file's, `resolve_path`), and d."""
     dim = table.get("dim", 2)
     if dim not in (2, 3) or isinstance(dim, bool):
         raise CaseError(f"geometry.dim: expected 2 or 3, got {dim!r}")
     if "kind" not in table:
         raise CaseError("geometry.kind: missing; expected the name of a geometry")
-    return dict(table), dim
+    table = dict(table)
+    if "path" in table:
+        table["path"] = resolve_path(table["path"], folder, "geometry.path")
+    return table, dim
+
+
+def resolve_path(value: Any, folder: Path, where: str) -> Any:
+    """A relative file path of a case file is its folder's: ``folder / value``. Kept as it is: an absolute path,
+    a value that is no path (the geometry builder reports it), and, with a one-line note on stderr, a path that
+    exists only relative to the working directory (case files written before paths were the case file's)."""
+    if not isinstance(value, str) or not value or Path(value).is_absolute():
+        return value
+    beside = folder / value
+    if beside.exists() or not Path(value).exists():
+        return str(beside)
+    print(f"note: {where}: {value} is not in the case file's folder {folder}; using {value} relative to the "
+          "working directory (write it relative to the case file)", file=sys.stderr)
+    return value
 
 
 def load_study_case(path: str | Path) -> StudyCase:
@@ -226,7 +245,7 @@ def load_study_case(path: str | Path) -> StudyCase:
 
     doc = read_toml(path)
     check_keys(doc, SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"))
+    geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
     materials = read_materials(section(doc, "materials"), dim)
     T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))

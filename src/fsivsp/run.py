@@ -136,7 +136,7 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
     path, doc = case_document(source, overrides)
     check_keys(doc, RUN_SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"))
+    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
     T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
