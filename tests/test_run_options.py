@@ -138,3 +138,17 @@ def test_relative_paths_are_the_case_files(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err == (f"note: geometry.path: meshes/layers.vol is not in the case file's folder "
                                        f"{tmp_path}; using meshes/layers.vol relative to the working directory "
                                        "(write it relative to the case file)\n")
+
+
+def test_set_up_stages_on_stderr_unless_quiet(tmp_path, capsys):
+    """One line per set-up stage with its time, in order; none with --quiet."""
+    import re
+
+    case = write_case(tmp_path)
+    assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("set-up:")]
+    stages = [re.fullmatch(r"set-up: (.+) \d+\.\d\d s", line).group(1) for line in lines]
+    assert stages[:3] == ["mesh", "spaces", "assembly"] and stages[4:] == ["initial data"]
+    assert re.fullmatch(r"(factorisation|preconditioner) \(\w+\)", stages[3])
+    assert run(case, tmp_path / "quiet") == 0
+    assert "set-up" not in capsys.readouterr().err

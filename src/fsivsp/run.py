@@ -29,6 +29,7 @@ from .fields import Field
 from .overrides import case_document
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
 from .quadratic import curve
+from .stages import stage
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
@@ -179,9 +180,10 @@ def build_scheme(case: RunCase):
 
     velocity, traction = boundary_conditions(case)
     disc = case.discretisation
-    if disc.curved:
-        curve(case.mesh, base_order(disc.family, disc.order))
-    spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
+    with stage("spaces"):
+        if disc.curved:
+            curve(case.mesh, base_order(disc.family, disc.order))
+        spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)
     data = Data(

@@ -10,6 +10,7 @@ from typing import Any
 
 from . import parallel
 from .run import load_run_case, run_case  # at import, so that the name fsivsp.run stays this function
+from .stages import reporting, stage
 from .threads import using
 
 
@@ -18,11 +19,14 @@ def run(case: str | Path | dict, out: str | Path | None = None, *, overrides: di
     """Run a case file (or a case as the dict its TOML parses to) into ``out`` (default: the case file's name,
     ``case`` for a dict) and return the summary (as in summary.json). ``overrides``: {"time.dt": 1e-4, ...} as
     ``--set``; ``threads``: default the case's [discretisation] threads, else 1. Bad input raises `CaseError`
-    (or `GeometryError`) with the one-line message of the command."""
+    (or `GeometryError`) with the one-line message of the command. Unless ``quiet``: the set-up stages on stderr
+    (`stages`) and a progress bar."""
     from .cli import check_output_folder
 
-    loaded = parallel.shared_case(load_run_case, case, overrides=overrides)
-    out = Path(out) if out is not None else Path(loaded.path.stem)
-    check_output_folder(out)
-    with using(threads or loaded.discretisation.threads):
-        return run_case(loaded, out, resume=resume, quiet=quiet)
+    with reporting(not quiet):
+        with stage("mesh"):
+            loaded = parallel.shared_case(load_run_case, case, overrides=overrides)
+        out = Path(out) if out is not None else Path(loaded.path.stem)
+        check_output_folder(out)
+        with using(threads or loaded.discretisation.threads):
+            return run_case(loaded, out, resume=resume, quiet=quiet)
