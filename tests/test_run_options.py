@@ -152,3 +152,17 @@ def test_set_up_stages_on_stderr_unless_quiet(tmp_path, capsys):
     assert re.fullmatch(r"(factorisation|preconditioner) \(\w+\)", stages[3])
     assert run(case, tmp_path / "quiet") == 0
     assert "set-up" not in capsys.readouterr().err
+
+
+def test_the_wrong_command_says_which_to_use(tmp_path, capsys):
+    """A run case given to ``study`` and a study case given to ``run``: one line naming the right command."""
+    from pathlib import Path
+
+    run_case = write_case(tmp_path)
+    assert main(["study", str(run_case), "--quiet"]) == 2
+    assert capsys.readouterr().err == (f"error: {run_case}: a case for `fsivsp run` (it has no [exact] section); "
+                                       f"use `fsivsp run {run_case}`\n")
+    study_case = Path(__file__).parents[1] / "examples" / "fluid_over_solid_2d.toml"
+    assert run(study_case, tmp_path / "out") == 2
+    assert capsys.readouterr().err == (f"error: {study_case}: a case for `fsivsp study` (it has an [exact] section); "
+                                       f"use `fsivsp study {study_case}`\n")

@@ -80,6 +80,15 @@ def read_toml(path: str | Path) -> dict:
         raise CaseError(f"{path}: not valid TOML: {str(error).splitlines()[0]}") from None
 
 
+def check_command(doc: dict, path: Path, command: str) -> None:
+    """A study case (with ``[exact]``) given to ``fsivsp run``, or a run case (without) to ``fsivsp study``: a
+    `CaseError` saying which command to use."""
+    if ("exact" in doc) == (command == "study"):
+        return
+    other, why = ("study", "it has an [exact] section") if command == "run" else ("run", "it has no [exact] section")
+    raise CaseError(f"{path}: a case for `fsivsp {other}` ({why}); use `fsivsp {other} {path}`")
+
+
 def section(doc: dict, name: str, required: bool = True) -> dict:
     if name not in doc:
         if required:
@@ -244,6 +253,7 @@ def load_study_case(path: str | Path) -> StudyCase:
     from .manufactured import ExactSolution, ManufacturedError
 
     doc = read_toml(path)
+    check_command(doc, Path(path), "study")
     check_keys(doc, SECTIONS, "")
     geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
     materials = read_materials(section(doc, "materials"), dim)

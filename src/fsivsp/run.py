@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from . import parallel
-from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_geometry, read_materials,
+from .case import (CaseError, CaseFile, check_command, check_keys, read_discretisation, read_geometry, read_materials,
                    read_time, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
@@ -136,6 +136,7 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
     {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
     path, doc = case_document(source, overrides)
+    check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
     geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
