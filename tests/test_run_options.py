@@ -166,3 +166,15 @@ def test_the_wrong_command_says_which_to_use(tmp_path, capsys):
     assert run(study_case, tmp_path / "out") == 2
     assert capsys.readouterr().err == (f"error: {study_case}: a case for `fsivsp study` (it has an [exact] section); "
                                        f"use `fsivsp study {study_case}`\n")
+
+
+def test_a_kinematic_looking_viscosity_is_warned_about(tmp_path, capsys):
+    """ν = 1e-6 with ρ_F = 1000 (water's kinematic viscosity in SI): one warning line; the run goes on."""
+    water = ["--set", "materials.rho_fluid=1000", "--set", "materials.rho_solid=1000", "--set", "materials.lam=1e6",
+             "--set", "materials.mu=1e6"]
+    assert run(write_case(tmp_path), tmp_path / "out", *water, "--set", "materials.nu=1e-6") == 0
+    assert capsys.readouterr().err == ("warning: materials.nu = 1e-06 is the dynamic viscosity (σ_F = −pI + 2ν ε(v), "
+                                       "Pa·s in SI); with rho_fluid = 1000 this looks like a kinematic one (m²/s): "
+                                       "water's dynamic viscosity is about 1e-3 Pa·s\n")
+    assert run(write_case(tmp_path), tmp_path / "dynamic", *water, "--set", "materials.nu=1e-3") == 0
+    assert capsys.readouterr().err == ""

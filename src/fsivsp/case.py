@@ -105,6 +105,7 @@ def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materi
     allowed = SECTIONS["materials"] | ({"young", "poisson"} if young_allowed else set())
     check_keys(table, allowed, "materials")
     fluid = {key: number(table, key, "materials", minimum=0) for key in ("rho_fluid", "rho_solid", "nu")}
+    kinematic_note(fluid["nu"], fluid["rho_fluid"])
     if young_allowed and ("young" in table or "poisson" in table):
         for key in ("lam", "mu"):
             if key in table:
@@ -116,6 +117,17 @@ def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materi
         return Materials.from_young(young, poisson, **fluid)
     mu = number(table, "mu", "materials", minimum=0)
     return Materials(lam=number(table, "lam", "materials", minimum=-2 * mu / dim), mu=mu, **fluid)
+
+
+def kinematic_note(nu: float, rho_fluid: float) -> None:
+    """One line on stderr when ν looks like water's kinematic viscosity in SI units (ν < 1e-4 with ρ_F ≈ 1000):
+    fsivsp's ν is the dynamic viscosity (σ_F = −pI + 2ν ε(v))."""
+    from . import parallel
+
+    if nu < 1e-4 and 500 <= rho_fluid <= 2000 and parallel.is_root():
+        print(f"warning: materials.nu = {nu:g} is the dynamic viscosity (σ_F = −pI + 2ν ε(v), Pa·s in SI); with "
+              f"rho_fluid = {rho_fluid:g} this looks like a kinematic one (m²/s): water's dynamic viscosity is about "
+              "1e-3 Pa·s", file=sys.stderr)
 
 
 @dataclass
