@@ -1,5 +1,6 @@
 """`fsivsp run` options of issue 25: continuous output, the line plot, --set, set-up messages, relative paths."""
 import json
+import re
 
 import meshio
 import numpy as np
@@ -142,7 +143,6 @@ def test_relative_paths_are_the_case_files(tmp_path, monkeypatch, capsys):
 
 def test_set_up_stages_on_stderr_unless_quiet(tmp_path, capsys):
     """One line per set-up stage with its time, in order; none with --quiet."""
-    import re
 
     case = write_case(tmp_path)
     assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0
@@ -178,3 +178,45 @@ def test_a_kinematic_looking_viscosity_is_warned_about(tmp_path, capsys):
                                        "water's dynamic viscosity is about 1e-3 Pa·s\n")
     assert run(write_case(tmp_path), tmp_path / "dynamic", *water, "--set", "materials.nu=1e-3") == 0
     assert capsys.readouterr().err == ""
+
+
+def test_progress_in_a_log_is_plain_lines(tmp_path):
+    """stderr redirected to a file: no carriage returns or escape codes, a plain line at the end of each bar."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import fsivsp
+
+    env = {**os.environ, "PYTHONPATH": str(Path(fsivsp.__file__).parents[1])}
+    example = Path(__file__).parents[1] / "examples" / "fluid_over_solid_2d.toml"
+    commands = {"run": ["run", str(write_case(tmp_path)), "--out", str(tmp_path / "out")],
+                "study": ["study", str(example), "--levels", "0"]}
+    for name, args in commands.items():
+        log = tmp_path / f"{name}.log"
+        with log.open("w") as stderr:
+            assert subprocess.run([sys.executable, "-m", "fsivsp.cli", *args], stdout=subprocess.DEVNULL,
+                                  stderr=stderr, env=env, timeout=120).returncode == 0
+        text = log.read_text()
+        assert "\r" not in text and "\x1b" not in text
+        progress = [line for line in text.splitlines() if not line.startswith("set-up:")]
+        if name == "run":
+            assert len(progress) == 1 and re.fullmatch(r"case: 2/2 steps \(100%\), \d+ s, \w+, \d+\.\d\d GiB", progress[0])
+        else:
+            assert len(progress) == 1 and re.fullmatch(r"fluid_over_solid_2d: 1/1 level \(100%\), \d+ s", progress[0])
+
+
+def test_log_bar_writes_a_line_per_interval(monkeypatch, capsys):
+    """`progress.LogBar` (stderr not a terminal): a line whenever `INTERVAL` has passed and one at the end; none for
+    an inner bar (leave=False) at its end."""
+    from fsivsp import progress
+
+    monkeypatch.setattr(progress, "INTERVAL", 0.0)
+    assert list(progress.tqdm(range(2), desc="jobs", unit="run")) == [0, 1]
+    with progress.tqdm(total=3, desc="inner", leave=False, unit="step") as bar:
+        bar.set_postfix_str("pardiso")
+        bar.update(1)
+    lines = [re.sub(r", \d+ s", ", T s", line) for line in capsys.readouterr().err.splitlines()]
+    assert lines == ["jobs: 1/2 runs (50%), T s", "jobs: 2/2 runs (100%), T s", "jobs: 2/2 runs (100%), T s",
+                     "inner: 1/3 steps (33%), T s, pardiso"]

@@ -416,7 +416,7 @@ def matrix_command(args) -> int:
 
 def matrix_table(args) -> int:
     """`matrix_command` under its threads: the entries, the table and its files."""
-    from tqdm.auto import tqdm
+    from .progress import tqdm
 
     from .report import write_atomic, write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
@@ -456,7 +456,7 @@ def matrix_table(args) -> int:
 
 def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
     """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
-    from tqdm.auto import tqdm
+    from .progress import tqdm
 
     if processes == 1:
         return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]

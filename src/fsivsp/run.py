@@ -287,7 +287,7 @@ def peak_memory() -> int:
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
     import ngsolve as ngs
-    from tqdm.auto import tqdm
+    from .progress import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from .output import Probes, VTKSeries, energy_plot, line_plot, probe_plot, scheme_fields, write_summary
