@@ -1,6 +1,7 @@
 """`fsivsp run` options of issue 25: continuous output, the line plot, --set, set-up messages, relative paths."""
 import json
 import re
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -156,7 +157,6 @@ def test_set_up_stages_on_stderr_unless_quiet(tmp_path, capsys):
 
 def test_the_wrong_command_says_which_to_use(tmp_path, capsys):
     """A run case given to ``study`` and a study case given to ``run``: one line naming the right command."""
-    from pathlib import Path
 
     run_case = write_case(tmp_path)
     assert main(["study", str(run_case), "--quiet"]) == 2
@@ -185,7 +185,6 @@ def test_progress_in_a_log_is_plain_lines(tmp_path):
     import os
     import subprocess
     import sys
-    from pathlib import Path
 
     import fsivsp
 
@@ -220,3 +219,32 @@ def test_log_bar_writes_a_line_per_interval(monkeypatch, capsys):
     lines = [re.sub(r", \d+ s", ", T s", line) for line in capsys.readouterr().err.splitlines()]
     assert lines == ["jobs: 1/2 runs (50%), T s", "jobs: 2/2 runs (100%), T s", "jobs: 2/2 runs (100%), T s",
                      "inner: 1/3 steps (33%), T s, pardiso"]
+
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+
+
+def test_msh_example_runs_from_any_folder(tmp_path, monkeypatch):
+    """examples/channel_2d.toml on examples/channel_2d.msh (gmsh 4.1), its path relative to the case file."""
+    from fsivsp.geometry import load_mesh
+
+    monkeypatch.chdir(tmp_path)
+    assert run(EXAMPLES / "channel_2d.toml", "out", "--set", "time.T=0.05") == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    mesh = load_mesh(EXAMPLES / "channel_2d.msh")
+    assert summary["status"] == "completed" and summary["mesh"] == {"vertices": mesh.nv, "cells": mesh.ne}
+    assert sorted(set(mesh.GetBoundaries())) == ["fluid_wall", "inflow", "interface", "outflow", "solid_wall"]
+    assert EXAMPLES.joinpath("channel_2d.msh").read_text().startswith("$MeshFormat\n4.1 0 8\n")
+
+
+def test_msh_example_is_what_the_script_writes(tmp_path):
+    import importlib.util
+
+    from fsivsp.geometry import load_mesh
+
+    spec = importlib.util.spec_from_file_location("make_msh_example", EXAMPLES / "make_msh_example.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    again = load_mesh(module.write_gmsh(module.channel(), tmp_path / "again.msh"))
+    shipped = load_mesh(EXAMPLES / "channel_2d.msh")
+    assert (again.nv, again.ne) == (shipped.nv, shipped.ne)
