@@ -119,15 +119,21 @@ def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materi
     return Materials(lam=number(table, "lam", "materials", minimum=-2 * mu / dim), mu=mu, **fluid)
 
 
+def notice(message: str) -> None:
+    """A one-line remark about a case that still runs, on stderr (under MPI: rank 0's)."""
+    from . import parallel
+
+    if parallel.is_root():
+        print(message, file=sys.stderr)
+
+
 def kinematic_note(nu: float, rho_fluid: float) -> None:
     """One line on stderr when ν looks like water's kinematic viscosity in SI units (ν < 1e-4 with ρ_F ≈ 1000):
     fsivsp's ν is the dynamic viscosity (σ_F = −pI + 2ν ε(v))."""
-    from . import parallel
-
-    if nu < 1e-4 and 500 <= rho_fluid <= 2000 and parallel.is_root():
-        print(f"warning: materials.nu = {nu:g} is the dynamic viscosity (σ_F = −pI + 2ν ε(v), Pa·s in SI); with "
-              f"rho_fluid = {rho_fluid:g} this looks like a kinematic one (m²/s): water's dynamic viscosity is about "
-              "1e-3 Pa·s", file=sys.stderr)
+    if nu < 1e-4 and 500 <= rho_fluid <= 2000:
+        notice(f"warning: materials.nu = {nu:g} is the dynamic viscosity (σ_F = −pI + 2ν ε(v), Pa·s in SI); with "
+               f"rho_fluid = {rho_fluid:g} this looks like a kinematic one (m²/s): water's dynamic viscosity is about "
+               "1e-3 Pa·s")
 
 
 @dataclass
@@ -254,8 +260,8 @@ def resolve_path(value: Any, folder: Path, where: str) -> Any:
     beside = folder / value
     if beside.exists() or not Path(value).exists():
         return str(beside)
-    print(f"note: {where}: {value} is not in the case file's folder {folder}; using {value} relative to the "
-          "working directory (write it relative to the case file)", file=sys.stderr)
+    notice(f"note: {where}: {value} is not in the case file's folder {folder}; using {value} relative to the "
+           "working directory (write it relative to the case file)")
     return value
 
 
