@@ -9,6 +9,8 @@ import pytest
 
 from fsivsp.cli import main
 
+from test_mpi import TUBE, mpirun, needs_mpi
+
 CASE = """
 [geometry]
 kind = "fluid_over_solid"
@@ -248,3 +250,16 @@ def test_msh_example_is_what_the_script_writes(tmp_path):
     again = load_mesh(module.write_gmsh(module.channel(), tmp_path / "again.msh"))
     shipped = load_mesh(EXAMPLES / "channel_2d.msh")
     assert (again.nv, again.ne) == (shipped.nv, shipped.ne)
+
+
+@needs_mpi
+def test_set_and_stages_on_two_ranks(tmp_path):
+    """Under mpirun: ``--set`` reaches every rank and each set-up stage is one line (rank 0's), not one per rank."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini"))
+    done = mpirun("run", str(case), "--out", str(tmp_path / "out"), "--set", "time.T=1e-4")
+    assert done.returncode == 0, done.stderr
+    stages = [line.split()[1] for line in done.stderr.splitlines() if line.startswith("set-up:")]
+    assert stages == ["mesh", "spaces", "assembly", "preconditioner", "initial"]
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["step"] == 2 and summary["overrides"] == {"time.T": 1e-4}
