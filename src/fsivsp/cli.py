@@ -417,7 +417,6 @@ def matrix_command(args) -> int:
 def matrix_table(args) -> int:
     """`matrix_command` under its threads: the entries, the table and its files."""
     from .progress import tqdm
-
     from .report import write_atomic, write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 

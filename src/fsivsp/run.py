@@ -7,7 +7,7 @@ Case file sections (all validated before any heavy work, see `load_run_case`):
 ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
 ``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
 velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
-lines, subdivision) and ``[checkpoint]`` (every).
+lines, vtk, subdivision, continuous) and ``[checkpoint]`` (every).
 """
 from __future__ import annotations
 
@@ -26,8 +26,8 @@ from .case import (CaseError, CaseFile, check_command, check_keys, read_discreti
                    read_time, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
-from .overrides import case_document
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
+from .overrides import case_document
 from .quadratic import curve
 from .stages import stage
 
@@ -287,10 +287,10 @@ def peak_memory() -> int:
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
     import ngsolve as ngs
-    from .progress import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from .output import Probes, VTKSeries, energy_plot, line_plot, probe_plot, scheme_fields, write_summary
+    from .progress import tqdm
     from .solvers import NotConverged
     from .spaces import global_count
     from .threads import current as current_threads
