@@ -62,13 +62,13 @@ def test_dry_run_prints_the_figures_and_writes_nothing(tmp_path, capsys):
 
 @pytest.fixture
 def no_run(monkeypatch):
-    """`run.run_case` replaced by a stub: what happens before set-up, without the run."""
+    """`runner.run_case` replaced by a stub: what happens before set-up, without the run."""
     calls = []
 
     def run_case(case, out, **options):
         calls.append(out)
-        return {"status": "completed", "step": 0, "time": 0.0}
-    monkeypatch.setattr("fsivsp.run.run_case", run_case)
+        return {"status": "completed", "step": 0, "time": 0.0, "threads": 1}
+    monkeypatch.setattr("fsivsp.runner.run_case", run_case)
     return calls
 
 

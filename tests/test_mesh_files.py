@@ -15,6 +15,7 @@ import pytest
 from fsivsp.cli import main
 from fsivsp.geometry import (FLUID, INTERFACE, SOLID, SOLID_WALL, GeometryError, build_geometry, interface_normal,
                              load_mesh, refined)
+from fsivsp.meshexport import to_meshio
 from fsivsp.quadratic import curve, quadratic_cells
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
@@ -29,28 +30,6 @@ STUDIES = {2: ("fluid_over_solid_2d.toml", 'kind = "fluid_over_solid"\ndim = 2\n
 def ball(dim: int) -> ngs.Mesh:
     """The coarse fluid_in_solid mesh of the study examples."""
     return build_geometry("fluid_in_solid", dim, 0.15 if dim == 2 else 0.4, curvature_safety=1.0)
-
-
-def to_meshio(mesh: ngs.Mesh) -> meshio.Mesh:
-    """The mesh with one cell block per region (entity tag = physical tag, named in field_data).
-    meshio's msh 4.1 writer lists only the entities that own nodes, so each block also gets one
-    unused copy of one of its nodes (a fluid ball may have no inner node); `load_mesh` drops it."""
-    dim = mesh.dim
-    points = [np.array([v.point + (0.0,) * (3 - dim) for v in mesh.vertices])]
-    owners = [np.zeros((mesh.nv, 2), dtype=int)]
-    cells, tags, names = [], [], {}
-    for vb, d, cell_type, regions in ((ngs.VOL, dim, ("triangle", "tetra")[dim - 2], mesh.GetMaterials()),
-                                      (ngs.BND, dim - 1, ("line", "triangle")[dim - 2], mesh.GetBoundaries())):
-        for tag, name in enumerate(dict.fromkeys(regions), start=1):
-            block = np.array([[v.nr for v in el.vertices] for el in mesh.Elements(vb) if el.mat == name])
-            cells.append((cell_type, block))
-            tags.append(np.full(len(block), tag))
-            names[name] = np.array([tag, d])
-            owners[0][block.ravel()] = (d, tag)
-            points.append(points[0][block[:1, 0]])
-            owners.append(np.array([[d, tag]]))
-    return meshio.Mesh(np.vstack(points), cells, point_data={"gmsh:dim_tags": np.vstack(owners)},
-                       cell_data={"gmsh:physical": tags, "gmsh:geometrical": tags}, field_data=names)
 
 
 def write(mesh: meshio.Mesh, path: Path, form: str = "41-ascii") -> Path:
@@ -381,7 +360,7 @@ def test_plane_step_file_is_2d(tmp_path):
 def test_run_on_the_step_example(tmp_path):
     case = tmp_path / "cad.toml"
     case.write_text((EXAMPLES / "cad_3d.toml").read_text()
-                    .replace('path = "examples/cylinder_in_box.step"', f'path = "{STEP}"').replace("T = 0.05", "T = 0.03"))
+                    .replace('path = "cylinder_in_box.step"', f'path = "{STEP}"').replace("T = 0.05", "T = 0.03"))
     out = tmp_path / "out"
     assert main(["run", str(case), "--out", str(out), "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())

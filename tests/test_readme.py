@@ -34,7 +34,9 @@ COMMANDS = {
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d --resume": RUN,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d --dry-run": RUN,
     "fsivsp run examples/large_ball_3d.toml --dry-run": PARSE,  # builds the 1.64 million unknowns' mesh
+    "fsivsp run examples/pressure_wave_2d.toml --out sweep --set time.T=1e-4 --set materials.nu=0.01": RUN,
     "fsivsp run examples/cad_3d.toml --out cad3d": RUN,
+    "fsivsp run examples/channel_2d.toml --out channel2d": RUN,
     "fsivsp run examples/large_ball_3d.toml --out large_ball": PARSE,  # its coarse mesh runs in test_run.py
     "fsivsp paper --dt 1e-2 --levels 0-4": PARSE,
     "fsivsp paper --dt 1e-3 --levels 2 --json out.json": PARSE,

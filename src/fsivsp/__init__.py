@@ -2,13 +2,16 @@
 
     import fsivsp
     records = fsivsp.study(fsivsp.paper_case(dt=1e-2), range(0, 3))
+    summary = fsivsp.run("examples/pressure_wave_2d.toml", out="wave2d")   # as `fsivsp run`
 """
+from .case import CaseError
 from .expressions import ExpressionError, parse, parse_vector
 from .fields import Field
 from .geometry import paper_channel, refined
 from .manufactured import ExactSolution, ManufacturedError
 from .materials import Materials
 from .paper import paper_case, reference_table
+from .runner import run
 from .scheme import Scheme, Data
 from .spaces import Spaces, build_spaces
 from . import threads
@@ -17,7 +20,7 @@ from .timeschemes import time_scheme
 
 __version__ = "0.1.0"
 __all__ = [
-    "Scheme", "Case", "Data", "ExactSolution", "ExpressionError", "Field", "ManufacturedError",
+    "Scheme", "Case", "CaseError", "Data", "ExactSolution", "ExpressionError", "Field", "ManufacturedError",
     "Materials", "Spaces", "build_spaces", "manufactured_data", "paper_case", "paper_channel", "parse",
-    "parse_vector", "reference_table", "refined", "run_level", "study", "time_scheme", "time_study",
+    "parse_vector", "reference_table", "refined", "run", "run_level", "study", "time_scheme", "time_study",
 ]

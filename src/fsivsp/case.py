@@ -8,6 +8,7 @@ from __future__ import annotations
 import difflib
 import math
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -79,6 +80,15 @@ def read_toml(path: str | Path) -> dict:
         raise CaseError(f"{path}: not valid TOML: {str(error).splitlines()[0]}") from None
 
 
+def check_command(doc: dict, path: Path, command: str) -> None:
+    """A study case (with ``[exact]``) given to ``fsivsp run``, or a run case (without) to ``fsivsp study``: a
+    `CaseError` saying which command to use."""
+    if ("exact" in doc) == (command == "study"):
+        return
+    other, why = ("study", "it has an [exact] section") if command == "run" else ("run", "it has no [exact] section")
+    raise CaseError(f"{path}: a case for `fsivsp {other}` ({why}); use `fsivsp {other} {path}`")
+
+
 def section(doc: dict, name: str, required: bool = True) -> dict:
     if name not in doc:
         if required:
@@ -95,6 +105,7 @@ def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materi
     allowed = SECTIONS["materials"] | ({"young", "poisson"} if young_allowed else set())
     check_keys(table, allowed, "materials")
     fluid = {key: number(table, key, "materials", minimum=0) for key in ("rho_fluid", "rho_solid", "nu")}
+    kinematic_note(fluid["nu"], fluid["rho_fluid"])
     if young_allowed and ("young" in table or "poisson" in table):
         for key in ("lam", "mu"):
             if key in table:
@@ -106,6 +117,23 @@ def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materi
         return Materials.from_young(young, poisson, **fluid)
     mu = number(table, "mu", "materials", minimum=0)
     return Materials(lam=number(table, "lam", "materials", minimum=-2 * mu / dim), mu=mu, **fluid)
+
+
+def notice(message: str) -> None:
+    """A one-line remark about a case that still runs, on stderr (under MPI: rank 0's)."""
+    from . import parallel
+
+    if parallel.is_root():
+        print(message, file=sys.stderr)
+
+
+def kinematic_note(nu: float, rho_fluid: float) -> None:
+    """One line on stderr when ν looks like water's kinematic viscosity in SI units (ν < 1e-4 with ρ_F ≈ 1000):
+    fsivsp's ν is the dynamic viscosity (σ_F = −pI + 2ν ε(v))."""
+    if nu < 1e-4 and 500 <= rho_fluid <= 2000:
+        notice(f"warning: materials.nu = {nu:g} is the dynamic viscosity (σ_F = −pI + 2ν ε(v), Pa·s in SI); with "
+               f"rho_fluid = {rho_fluid:g} this looks like a kinematic one (m²/s): water's dynamic viscosity is about "
+               "1e-3 Pa·s")
 
 
 @dataclass
@@ -210,13 +238,31 @@ class StudyCase(CaseFile):
     exact: Any = None
 
 
-def read_geometry(table: dict) -> tuple[dict, int]:
+def read_geometry(table: dict, folder: Path = Path(".")) -> tuple[dict, int]:
+    """The geometry table, its ``path`` resolved from ``folder`` (the case file's, `resolve_path`), and d."""
     dim = table.get("dim", 2)
     if dim not in (2, 3) or isinstance(dim, bool):
         raise CaseError(f"geometry.dim: expected 2 or 3, got {dim!r}")
     if "kind" not in table:
         raise CaseError("geometry.kind: missing; expected the name of a geometry")
-    return dict(table), dim
+    table = dict(table)
+    if "path" in table:
+        table["path"] = resolve_path(table["path"], folder, "geometry.path")
+    return table, dim
+
+
+def resolve_path(value: Any, folder: Path, where: str) -> Any:
+    """A relative file path of a case file is its folder's: ``folder / value``. Kept as it is: an absolute path,
+    a value that is no path (the geometry builder reports it), and, with a one-line note on stderr, a path that
+    exists only relative to the working directory (case files written before paths were the case file's)."""
+    if not isinstance(value, str) or not value or Path(value).is_absolute():
+        return value
+    beside = folder / value
+    if beside.exists() or not Path(value).exists():
+        return str(beside)
+    notice(f"note: {where}: {value} is not in the case file's folder {folder}; using {value} relative to the "
+           "working directory (write it relative to the case file)")
+    return value
 
 
 def load_study_case(path: str | Path) -> StudyCase:
@@ -225,8 +271,9 @@ def load_study_case(path: str | Path) -> StudyCase:
     from .manufactured import ExactSolution, ManufacturedError
 
     doc = read_toml(path)
+    check_command(doc, Path(path), "study")
     check_keys(doc, SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"))
+    geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
     materials = read_materials(section(doc, "materials"), dim)
     T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))

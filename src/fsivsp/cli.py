@@ -184,11 +184,14 @@ def build_parser() -> Parser:
     run.add_argument("case", type=Path, metavar="CASE.toml", help="the case file")
     run.add_argument("--out", type=Path, default=None, metavar="DIR", help="output folder (default: the case's name)")
     run.add_argument("--resume", action="store_true", help="continue from the last checkpoint in DIR/checkpoints")
-    run.add_argument("--quiet", action="store_true", help="no progress bar, no estimate line")
+    run.add_argument("--quiet", action="store_true", help="no progress bar, no set-up or estimate lines")
     run.add_argument("--dry-run", action="store_true",
                      help="print the unknowns and the estimated memory, time per step and output size; run nothing")
     run.add_argument("--force", action="store_true",
                      help="run even when the estimated memory exceeds MemAvailable or the output the free space")
+    run.add_argument("--set", action="append", default=[], dest="overrides",
+                     metavar="SECTION.KEY=VALUE", help="override a case-file key with a TOML value, e.g. "
+                     "--set time.dt=1e-4 (validated like the file, recorded in summary.json; repeatable)")
     threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
@@ -381,18 +384,17 @@ def run_command(args) -> int:
     checkpointed; during set-up at once, nothing written)."""
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
-    from .estimate import before_run
-    from .run import SolveDiverged, Terminated, load_run_case, raise_terminated, run_case
+    from .overrides import parse_overrides
+    from .run import SolveDiverged, Terminated, raise_terminated
+    from .runner import run
 
     previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
     try:
-        case = parallel.shared_case(load_run_case, args.case)
         out = args.out or Path(args.case.stem)
-        check_output_folder(out)
-        if before_run(case, out, dry_run=args.dry_run, force=args.force, quiet=args.quiet):
+        summary = run(args.case, out, overrides=parse_overrides(args.overrides), resume=args.resume,
+                      quiet=args.quiet, threads=args.threads, dry_run=args.dry_run, force=args.force)
+        if summary is None:  # --dry-run
             return 0
-        with using(args.threads or case.discretisation.threads) as threads:
-            summary = run_case(case, out, resume=args.resume, quiet=args.quiet)
     except (SolveDiverged, NotConverged) as error:
         print(f"error: {error}", file=sys.stderr)
         return 3
@@ -407,6 +409,7 @@ def run_command(args) -> int:
         return stop.exit_code
     finally:
         signal.signal(signal.SIGTERM, previous)
+    threads = summary["threads"]
     print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
           f"thread{'s' * (threads > 1)}; results in {out}")
     return 0
@@ -420,8 +423,7 @@ def matrix_command(args) -> int:
 
 def matrix_table(args) -> int:
     """`matrix_command` under its threads: the entries, the table and its files."""
-    from tqdm.auto import tqdm
-
+    from .progress import tqdm
     from .report import write_atomic, write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 
@@ -460,7 +462,7 @@ def matrix_table(args) -> int:
 
 def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
     """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
-    from tqdm.auto import tqdm
+    from .progress import tqdm
 
     if processes == 1:
         return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]

@@ -7,7 +7,7 @@ Case file sections (all validated before any heavy work, see `load_run_case`):
 ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
 ``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
 velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
-lines, subdivision) and ``[checkpoint]`` (every).
+lines, vtk, subdivision, continuous) and ``[checkpoint]`` (every).
 """
 from __future__ import annotations
 
@@ -22,16 +22,18 @@ from typing import Any
 import numpy as np
 
 from . import parallel
-from .case import (CaseError, CaseFile, check_keys, read_discretisation, read_geometry, read_materials,
-                   read_time, read_toml, section)
+from .case import (CaseError, CaseFile, check_command, check_keys, read_discretisation, read_geometry, read_materials,
+                   read_time, section)
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
 from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
+from .overrides import case_document
 from .quadratic import curve
+from .stages import stage
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
-OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk"}
+OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk", "continuous"}
 CHECKPOINT_KEYS = {"every"}
 #: ``[geometry] refine``: uniform refinements of the generated or read mesh (each multiplies the cells by 2^d)
 MAX_REFINE = 6
@@ -50,6 +52,7 @@ class RunCase(CaseFile):
     output: dict[str, Any]
     checkpoint_every: int
     mesh: Any = field(default=None, repr=False)
+    overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
 
     @property
     def steps(self) -> int:
@@ -82,6 +85,13 @@ def _points(value, field_name: str, dim: int) -> list[tuple[float, ...]]:
     return points
 
 
+def _flag(table: dict, key: str, default: bool) -> bool:
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise CaseError(f"output.{key}: expected true or false, got {value!r}")
+    return value
+
+
 def read_output(table: dict, dim: int) -> dict[str, Any]:
     check_keys(table, OUTPUT_KEYS, "output")
     lines = []
@@ -90,14 +100,12 @@ def read_output(table: dict, dim: int) -> dict[str, Any]:
             raise CaseError(f"output.lines[{i}]: expected {{start = [...], end = [...], n = N}}, got {line!r}")
         start, end = _points([line["start"], line["end"]], f"output.lines[{i}]", dim)
         lines.append((start, end, _whole(line, "n", f"output.lines[{i}]", 20)))
-    vtk = table.get("vtk", True)
-    if not isinstance(vtk, bool):
-        raise CaseError(f"output.vtk: expected true or false, got {vtk!r}")
+    vtk, continuous = (_flag(table, key, default) for key, default in (("vtk", True), ("continuous", False)))
     subdivision = table.get("subdivision", 0)
     if isinstance(subdivision, bool) or not isinstance(subdivision, int) or not 0 <= subdivision <= 3:
         raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
     return {"every": _whole(table, "every", "output", 10), "probes": _points(table.get("probes", []), "output.probes", dim),
-            "lines": lines, "vtk": vtk, "subdivision": subdivision}
+            "lines": lines, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
 
 
 def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
@@ -124,11 +132,13 @@ def check_boundaries(boundaries: dict, mesh) -> None:
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
 
 
-def load_run_case(path: str | Path) -> RunCase:
-    """Read and validate every field of a production case, including the mesh's boundary names."""
-    doc = read_toml(path)
+def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
+    """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
+    {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
+    path, doc = case_document(source, overrides)
+    check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"))
+    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
     T, dt, scheme = read_time(section(doc, "time"))
     disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
@@ -148,7 +158,8 @@ def load_run_case(path: str | Path) -> RunCase:
     if refine:
         mesh = refined(mesh, refine, disc.curved)
     check_boundaries(boundaries, mesh)
-    return RunCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh)
+    return RunCase(path, geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh,
+                   dict(overrides or {}))
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
@@ -170,9 +181,10 @@ def build_scheme(case: RunCase):
 
     velocity, traction = boundary_conditions(case)
     disc = case.discretisation
-    if disc.curved:
-        curve(case.mesh, base_order(disc.family, disc.order))
-    spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
+    with stage("spaces"):
+        if disc.curved:
+            curve(case.mesh, base_order(disc.family, disc.order))
+        spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)
     data = Data(
@@ -273,10 +285,10 @@ def peak_memory() -> int:
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
     """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
     import ngsolve as ngs
-    from tqdm.auto import tqdm
 
     from .checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
-    from .output import Probes, VTKSeries, energy_plot, probe_plot, scheme_fields, write_summary
+    from .output import Probes, VTKSeries, energy_plot, line_plot, probe_plot, scheme_fields, write_summary
+    from .progress import tqdm
     from .solvers import NotConverged
     from .spaces import global_count
     from .threads import current as current_threads
@@ -290,7 +302,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     setup = clock.perf_counter() - started
     fields, stress = scheme_fields(scheme)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
-                       refresh=stress) if case.output["vtk"] else None
+                       refresh=stress, continuous=case.output["continuous"]) if case.output["vtk"] else None
     probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
     history = {"time": [], "energy": []}
     resumed_from = None
@@ -317,9 +329,11 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             energy_plot(history["time"], history["energy"], out / "energy.png")
             if case.output["probes"]:
                 probe_plot(probes, out / "probes.png")
+            if case.output["lines"]:
+                line_plot(probes, out / "lines.png")
         spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
         summary = {
-            "case": str(case.path), "status": status, "step": scheme.n, "time": scheme.time,
+            "case": str(case.path), "overrides": case.overrides, "status": status, "step": scheme.n, "time": scheme.time,
             "inputs": {"geometry": case.geometry, "materials": case.materials.as_dict(), "T": case.T, "dt": case.dt,
                        "scheme": case.time_scheme.name, "theta": case.time_scheme.theta,
                        "family": case.discretisation.family, "order": case.discretisation.order},

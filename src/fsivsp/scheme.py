@@ -29,6 +29,7 @@ from .manufactured import grad
 from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
+from .stages import stage
 from .threads import current as current_threads
 from .timeschemes import BDF2, Theta
 
@@ -67,6 +68,13 @@ class Data:
         if self.initial_velocity not in INITIAL_VELOCITY:
             raise ValueError(f"initial_velocity: expected one of {', '.join(INITIAL_VELOCITY)}, "
                              f"got {self.initial_velocity!r}")
+
+
+def solver_stage(solver) -> str:
+    """The set-up stage of a step solver, e.g. ``factorisation (pardiso)`` or ``preconditioner (minres)``."""
+    from .solvers.direct import DirectSolver
+
+    return f"{'factorisation' if isinstance(solver, DirectSolver) else 'preconditioner'} ({solver.method})"
 
 
 def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunction:
@@ -120,11 +128,14 @@ class Scheme:
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         X, dim = spaces.mixed, spaces.mesh.dim
 
-        step = forms.step_matrix(spaces, materials, self.tau).Assemble()
-        self._matrix = compact(step.mat)
-        del step
-        self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations,
-                                  petsc_options)
+        with stage("assembly"):
+            step = forms.step_matrix(spaces, materials, self.tau).Assemble()
+            self._matrix = compact(step.mat)
+            del step
+        with stage("solver") as label:
+            self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations,
+                                      petsc_options)
+            label[0] = solver_stage(self.solver)
         self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
         self._lagged_coefficients = time_scheme.lagged(dt)
         self._lagged = compact(forms.lagged_operator(spaces, materials, *self._lagged_coefficients).Assemble().mat)
@@ -153,7 +164,8 @@ class Scheme:
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._lag_work = None                   # `march`'s second thread's vectors, made on first use
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
-        self.initialise()
+        with stage("initial data"):
+            self.initialise()
 
     # -- precomputation -------------------------------------------------------------
     def _linear_form(self, integrand: Callable, measure) -> Callable:

@@ -8,7 +8,7 @@ from typing import Callable
 
 import ngsolve as ngs
 import numpy as np
-from tqdm.auto import tqdm
+from .progress import tqdm
 
 from . import parallel
 from .fields import Field
