@@ -68,11 +68,13 @@ def test_serial_helpers_are_identities():
 
 @needs_mpi
 @pytest.mark.parametrize("text, family, solver, ranks", [
-    (TUBE, "mini", None, 2), (BALL, None, None, 2), (TUBE, "mini", "petsc", 2), (BALL, None, "petsc", 3),
-    (TUBE, "mini", "direct", 2)], ids=["tube-2d", "ball-3d", "tube-2d-petsc", "ball-3d-petsc-3-ranks", "tube-2d-mumps"])
+    (TUBE, "mini", "iterative", 2), (BALL, None, "iterative", 2), (TUBE, "mini", None, 2), (BALL, None, "petsc", 3),
+    (TUBE, "mini", "direct", 2)],
+    ids=["tube-2d-bddc", "ball-3d-bddc", "tube-2d-auto-petsc", "ball-3d-petsc-3-ranks", "tube-2d-mumps"])
 def test_run_equals_serial(tmp_path, text, family, solver, ranks):
     """``fsivsp run`` on 2 (3) ranks: the same counts, energies at every step and final L² norms as the serial
-    run; NGSolve's distributed solver by default, PETSc's over all ranks (rank 0 too) with ``solver = "petsc"``."""
+    run; PETSc's solvers over all ranks (rank 0 too) by default and with ``"petsc"`` or ``"direct"`` (MUMPS),
+    NGSolve's BDDC MinRes with ``"iterative"``."""
     case = tmp_path / "case.toml"
     text = text.format(family=family)
     if solver:
@@ -83,7 +85,7 @@ def test_run_equals_serial(tmp_path, text, family, solver, ranks):
     done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet", ranks=ranks)
     assert done.returncode == 0, done.stderr
     serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
-    assert distributed["solver"]["method"] == {None: "distributed", "direct": "petsc"}.get(solver, solver)
+    assert distributed["solver"]["method"] == {"iterative": "distributed"}.get(solver, "petsc")
     assert distributed["ranks"]["size"] == ranks
     assert (distributed["mesh"], distributed["dofs"]) == (serial["mesh"], serial["dofs"])
     assert_close(serial["l2_norms"], distributed["l2_norms"], "L² norm")
@@ -118,7 +120,7 @@ def test_errors_equal_serial(tmp_path, command):
     serial, distributed = (json.loads((tmp_path / name).read_text()) for name in ("serial.json", "mpi.json"))
     assert [r["level"] for r in distributed] == [r["level"] for r in serial]
     for s, d in zip(serial, distributed):
-        assert d["solver"] == "distributed" and (d["vertices"], d["dofs"]) == (s["vertices"], s["dofs"])
+        assert d["solver"] == "petsc" and (d["vertices"], d["dofs"]) == (s["vertices"], s["dofs"])
         assert_close(s["errors"], d["errors"], f"level {s['level']}")
 
 
@@ -219,6 +221,6 @@ def test_estimate_and_free_space_refusal_are_one_message(tmp_path, tiny_disk):
     done = mpirun("run", str(case), "--out", str(tiny_disk / "out"))
     assert done.returncode == 2, done.stderr
     ours = [line for line in done.stderr.splitlines() if line.startswith(("estimate:", "error:"))]
-    assert len(ours) == 2 and ours[0].startswith("estimate: 1 799 unknowns (iterative)"), done.stderr
+    assert len(ours) == 2 and ours[0].startswith("estimate: 1 799 unknowns (petsc)"), done.stderr
     assert ours[1].startswith(f"error: fsivsp run: --out {tiny_disk / 'out'}: 0.7 MB free"), done.stderr
     assert not list(tiny_disk.iterdir())

@@ -137,12 +137,12 @@ def count_unknowns(case) -> int:
 
 def solver_kind(name: str, unknowns: int, dim: int) -> str:
     """direct, iterative or petsc: what ``name`` (a case's solver) runs on ``unknowns`` (`solvers.step_solver`)."""
-    from .solvers import AUTO_ITERATIVE_DOFS
+    from .solvers import auto_solver
 
-    if parallel.distributed():
-        return "iterative"   # `solvers.distributed_solver`: MinRes over the ranks
     if name == "auto":
-        return "iterative" if unknowns >= AUTO_ITERATIVE_DOFS[dim] else "direct"
+        return auto_solver(unknowns, dim, parallel.distributed())
+    if parallel.distributed():  # MUMPS through PETSc, or `solvers.distributed_solver`
+        return "petsc" if name in ("petsc", "direct") else "iterative"
     return name if name in ("iterative", "petsc") else "direct"
 
 

@@ -8,10 +8,10 @@
 - `distributed`: the same MinRes with a preconditioner NGSolve runs over MPI ranks (`DistributedSolver`),
   taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
 
-`step_solver` picks one by name: ``"auto"`` (the default) takes the direct solver below
-`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and the iterative one above (PETSc's is not yet faster
-there: docs/solvers.md, "PETSc"); ``"direct"`` the fastest safe direct method; ``"iterative"``; ``"petsc"``;
-or a direct method by name (`METHODS`).
+`step_solver` picks one by name: ``"auto"`` (the default, `auto_solver`) takes the direct solver below
+`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and PETSc's above and under mpirun (the NGSolve-native
+iterative solver where petsc4py does not import); ``"direct"`` the fastest safe direct method (MUMPS under
+mpirun); ``"iterative"``; ``"petsc"``; or a direct method by name (`METHODS`).
 """
 from __future__ import annotations
 
@@ -25,18 +25,31 @@ from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_sol
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 
 __all__ = [
-    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
+    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "auto_solver", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
     "DistributedSolver", "IterativeSolver",
     "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
     "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
     "unsupported",
 ]
 
-#: ``"auto"`` takes the iterative solver from this many free unknowns on (by dimension). Memory decides, not
+#: ``"auto"`` takes an iterative solver from this many free unknowns on (by dimension). Memory decides, not
 #: time: on 535 830 unknowns of the 3D ball (MINI) the factorisation took 13.4 GiB against 1.86 GiB for the
 #: whole iterative run, and on 151 059 of the 3D solid ball with Taylor–Hood k = 2 5.0 GiB against 1.3 GiB,
 #: though its steps are faster (BENCHMARKS.md, "Scale"); in 2D the fill stays small.
 AUTO_ITERATIVE_DOFS = {2: 1_000_000, 3: 150_000}
+
+
+def auto_solver(unknowns: int, dim: int, distributed: bool = False) -> str:
+    """What ``"auto"`` runs for ``unknowns`` free unknowns: ``"direct"`` below `AUTO_ITERATIVE_DOFS` (serial),
+    else ``"petsc"`` where petsc4py imports, else ``"iterative"``. PETSc, not the NGSolve-native solver: its
+    iterations stay flat where the other's break down (the 3D tube of benchmarks/tube.py: 23–32 against 55 up
+    to 430 568 unknowns and 452 at 1.4 million), and it runs on every rank; the NGSolve-native solver is faster
+    per step on the 3D fluid ball (535 830 unknowns: 5.5 against 8.2 s; docs/solvers.md, "PETSc")."""
+    from .petsc import available
+
+    if not distributed and unknowns < AUTO_ITERATIVE_DOFS[dim]:
+        return "direct"
+    return "petsc" if available() is None else "iterative"
 
 
 class StepSolver(Protocol):
@@ -69,6 +82,8 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     if name not in solver_names():
         raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
     distributed = isinstance(matrix, ngs.la.ParallelMatrix)  # a distributed mesh (mpirun)
+    if name == "auto":
+        name = auto_solver(spaces.free_dofs(), spaces.mesh.dim, distributed)
     if name == "petsc" or (distributed and name == "direct"):
         from .petsc import MUMPS, PETScSolver
 
@@ -76,8 +91,6 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
         return PETScSolver(matrix, spaces, materials, dt, tol, maxiter, options)
     if distributed:
         return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
-    if name == "auto":
-        name = "iterative" if spaces.free_dofs() >= AUTO_ITERATIVE_DOFS[spaces.mesh.dim] else "direct"
     if name == "iterative":
         return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
     return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name == "direct" else name)
