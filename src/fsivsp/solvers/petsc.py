@@ -60,6 +60,8 @@ DEFAULTS: dict[str, str] = {
 #: coarsening, ext+i interpolation with at most 4 entries per row, aggressive coarsening on the first level):
 #: on level 3 of the 3D fluid ball 14 iterations at 17 ms per V-cycle against 10 at 64 ms with hypre's
 #: defaults. In 2D the defaults are better (the paper's levels 2-4: 13, 16, 21 iterations against 24, 30, 37).
+#: The smoother stays hypre's hybrid symmetric Gauss–Seidel: its l1-scaled variant, as fast serially (the 3D tube
+#: at maxh 0.1: 31.3 iterations either way), broke down over ranks (2 ranks: 159 against 34 iterations).
 #: The pressure Laplacian F takes the same coarsening (not the smoother): on the 3D tube at maxh 0.1 (57 645
 #: unknowns) its operator complexity with hypre's defaults is 4.1 (F = C diag(A)⁻¹ Cᵀ has 55 entries a row) and
 #: the pressure block took 1.29 of 2.03 s of the solves, 0.41 s with these, in the same 31.3 iterations; the 3D
@@ -68,7 +70,6 @@ DEFAULTS_3D: dict[str, str] = {
     **{f"{block}_pc_hypre_boomeramg_{key}": value for block in ("fieldsplit_velocity", "schur_laplacian")
        for key, value in (("strong_threshold", "0.5"), ("coarsen_type", "HMIS"), ("interp_type", "ext+i"),
                           ("P_max", "4"), ("agg_nl", "1"))},
-    "fieldsplit_velocity_pc_hypre_boomeramg_relax_type_all": "l1scaled-SOR/Jacobi",
 }
 
 
