@@ -1,7 +1,7 @@
 """The 3D fluid-filled elastic tube (examples/pressure_wave.toml) at several mesh sizes, solvers and rank counts.
 
 Each (maxh, solver, ranks) is one ``fsivsp run`` of ``--steps`` steps in a process (or ``mpirun -np RANKS``) of its
-own, under ``/usr/bin/time -v`` for the peak memory of each rank. Reads the run's summary.json: free unknowns,
+own. Reads the run's summary.json: free unknowns, the peak memory of each rank,
 iterations per step, set-up and time per step (the run's total minus its set-up, over the steps), one
 matrix–vector product of the step matrix (the PETSc solver's ``matvec_seconds``) and the step's cost in products.
 Prints a table and writes JSON.
@@ -39,7 +39,7 @@ def measure(maxh: float, solver: str, ranks: int, steps: int, folder: Path) -> d
     command = [sys.executable, "-m", "fsivsp.cli", "run", str(case), "--out", str(out), "--quiet"]
     if ranks > 1:
         command = ["/usr/bin/mpirun", "--allow-run-as-root", "-np", str(ranks), *command]
-    done = subprocess.run(["/usr/bin/time", "-v", *command], capture_output=True, text=True)
+    done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         return {"maxh": maxh, "solver": solver, "ranks": ranks, "failed": done.stderr.strip().splitlines()[-3:]}
     summary = json.loads((out / "summary.json").read_text())
@@ -51,8 +51,8 @@ def measure(maxh: float, solver: str, ranks: int, steps: int, folder: Path) -> d
             "iterations": statistics.get("iterations"), "setup_seconds": seconds["setup"],
             "solver_setup_seconds": statistics.get("setup_seconds"), "step_seconds": step,
             "matvec_seconds": matvec, "step_matvecs": step / matvec if matvec else None,
-            "peak_bytes_per_rank": peak, "peak_bytes_total": sum(summary.get("ranks", {}).get(
-                "peak_memory_bytes", [summary["peak_memory_bytes"]]))}
+            "peak_bytes_per_rank": peak, "peak_bytes_of_ranks": summary.get("ranks", {}).get(
+                "peak_memory_bytes", [summary["peak_memory_bytes"]]), "l2_norms": summary["l2_norms"]}
 
 
 def main() -> None:
