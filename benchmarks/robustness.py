@@ -1,10 +1,11 @@
-"""Robustness of the iterative solver: mean and largest MinRes iterations per step against the level, Δt and
-the materials (issue 12's table).
+"""Robustness of an iterative solver: mean and largest iterations per step against the level, Δt and the
+materials (issue 12's table; issue 22's for PETSc, with λ/μ = 10⁴ and Taylor–Hood k = 2 in 3D).
 
 Each row: the case's manufactured data on its coarse mesh refined ``level`` times, ``--steps`` steps of the
-scheme with the iterative solver at its default tolerance (no error norms).
+scheme with ``--solver`` at its default tolerance (no error norms).
 
-    python benchmarks/robustness.py --json benchmarks/robustness.json
+    python benchmarks/robustness.py --solver petsc --json benchmarks/robustness_petsc.json
+    python benchmarks/robustness.py --solver iterative --json benchmarks/robustness.json
 """
 from __future__ import annotations
 
@@ -27,18 +28,19 @@ TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
 MAX_ITERATIONS = 20_000
 
 
-def iterations(case, level: int, steps: int) -> dict:
+def iterations(case, level: int, steps: int, solver: str) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
     spaces = build_spaces(mesh, case.family, case.order, dirichlet)
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
     start = time.perf_counter()
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver="iterative", tolerance=case.tolerance,
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance,
                     max_iterations=MAX_ITERATIONS)
     scheme.march(steps)
-    stats = scheme.solver.statistics()["iterations"]
-    return {"dofs": spaces.free_dofs(), "mean": stats["mean"], "max": stats["max"],
-            "preconditioner": scheme.solver.preconditioner.describe(), "seconds": time.perf_counter() - start}
+    statistics = scheme.solver.statistics()
+    return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
+            "max": statistics["iterations"]["max"], "preconditioner": statistics["preconditioner"],
+            "seconds": time.perf_counter() - start}
 
 
 def rows(max_level_2d: int, max_level_3d: int):
@@ -51,6 +53,12 @@ def rows(max_level_2d: int, max_level_3d: int):
         for dt in TIME_STEPS:
             for level in range(max_level_3d + 1):
                 yield "levels and time steps", example, dataclasses.replace(base, dt=dt), level
+    solid = to_study(load_study_case(EXAMPLES / "solid_in_fluid_3d.toml"))
+    incompressible = dataclasses.replace(solid.materials, lam=1e4 * solid.materials.mu)
+    for level in range(max_level_3d):
+        yield "Taylor–Hood k = 2 in 3D", "solid_in_fluid_3d", \
+            dataclasses.replace(solid, family="taylor_hood", order=2), level
+        yield "materials", "solid_in_fluid_3d, lam/mu = 1e+04", dataclasses.replace(solid, materials=incompressible), level
     paper = paper_case(1e-2)
     for name, values in (("lam/mu", (1.0, 1e2, 1e4)), ("rho_solid/rho_fluid", (0.1, 1.0, 10.0)),
                          ("nu", (1e-3, 1e-1, 1.0))):
@@ -65,6 +73,7 @@ def rows(max_level_2d: int, max_level_3d: int):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--solver", default="petsc", help="petsc (the default) or iterative")
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--max-level-2d", type=int, default=4)
     parser.add_argument("--max-level-3d", type=int, default=3)
@@ -72,8 +81,8 @@ def main() -> None:
     args = parser.parse_args()
     records = []
     for table, label, case, level in rows(args.max_level_2d, args.max_level_3d):
-        record = {"table": table, "case": label, "dt": case.dt, "level": level,
-                  **iterations(case, level, args.steps)}
+        record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
+                  **iterations(case, level, args.steps, args.solver)}
         records.append(record)
         print(f"{table:22} {label:32} dt {case.dt:7.0e} level {level} dofs {record['dofs']:>7}  "
               f"its mean {record['mean']:6.1f} max {record['max']:4d}  {record['seconds']:6.1f} s", flush=True)

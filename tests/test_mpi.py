@@ -195,6 +195,69 @@ def test_resume_equals_uninterrupted(tmp_path):
     assert got["energy"]["energy"] == pytest.approx(expected["energy"]["energy"], rel=1e-10)
 
 
+#: ``fsivsp ARGS`` in which every rank sends itself ``signal`` during step ``step`` (as a scheduler signals the
+#: ranks at its time limit), so that the test does not race the run.
+SIGNALLED = """
+import os, signal, sys
+from fsivsp.scheme import Scheme
+from fsivsp.cli import main
+original = Scheme.step
+def step(self, *args, **kwargs):
+    if self.n + 1 == {step}:
+        os.kill(os.getpid(), signal.{signal})
+    return original(self, *args, **kwargs)
+Scheme.step = step
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@needs_mpi
+def test_sigterm_on_two_ranks_then_resume(tmp_path):
+    """SIGTERM on both ranks during step 3: they finish the step together, one line, a checkpoint at step 3, a
+    summary with "terminated", exit 143; --resume under mpirun ends as the uninterrupted run (PETSc, the default
+    under mpirun, rounds alike from run to run: to the last bit here, asserted to 1e-13)."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini"))
+    script = tmp_path / "signalled.py"
+    script.write_text(SIGNALLED.format(step=3, signal="SIGTERM"))
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
+    cut = tmp_path / "cut"
+    done = subprocess.run([MPIRUN, "-np", "2", sys.executable, str(script), "run", str(case), "--out", str(cut),
+                           "--quiet"], capture_output=True, text=True, env=env, timeout=TIMEOUT)
+    assert done.returncode == 143, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("terminated")]
+    checkpoint = cut / "checkpoints" / "checkpoint_000003.npz"
+    assert ours == [f"terminated at step 3 (t = 0.00015): checkpoint {checkpoint}; continue with --resume"], done.stderr
+    assert json.loads((cut / "summary.json").read_text())["status"] == "terminated"
+    for args in (("--out", str(tmp_path / "whole")), ("--out", str(cut), "--resume")):
+        done = mpirun("run", str(case), *args, "--quiet")
+        assert done.returncode == 0, done.stderr
+    whole, resumed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "cut"))
+    assert resumed["resumed_from"] == 3 and resumed["step"] == whole["step"] == 5
+    for name, value in whole["l2_norms"].items():
+        assert resumed["l2_norms"][name] == pytest.approx(value, rel=1e-13), name
+
+
+@needs_mpi
+def test_full_disk_on_two_ranks(tmp_path, tiny_disk):
+    """A forced run into a 700 kB filesystem on 2 ranks: one line naming the file, exit 4, and every VTK piece the
+    series lists reads with meshio."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("T = 2.5e-4", "T = 2e-3").replace("every = 5\nprobes",
+                                                                                      "every = 1\nprobes"))
+    out = tiny_disk / "out"
+    done = mpirun("run", str(case), "--out", str(out), "--force", "--quiet")
+    assert done.returncode == 4, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and ours[0].startswith("error: cannot write ") and "No space left" in ours[0], done.stderr
+    series = out / "vtk" / "fields.pvd"
+    if series.exists():
+        import xml.etree.ElementTree as ET
+        for item in ET.parse(series).getroot().iter("DataSet"):
+            meshio.read(series.parent / item.get("file"))
+
+
 @needs_mpi
 def test_second_order_mesh_file_is_refused(tmp_path):
     """A gmsh file of curved triangle6 cells: one line naming the file, exit 2 on every rank."""

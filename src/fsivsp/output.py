@@ -16,9 +16,11 @@ good one was (the VTK series, the ``.pvd`` collection, the CSV files, the plots)
 """
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
+import shutil
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -183,8 +185,17 @@ class VTKSeries:
             os.replace(written, path)
         finally:
             written.unlink(missing_ok=True)
-        if "region" in self.fields:
-            postprocess(path, self.continuous)
+        self._finish(path)
+
+    def _finish(self, path: Path) -> None:
+        """A file NGSolve's VTKOutput wrote, post-processed (`postprocess`) or at least read back whole; it does
+        not report a failed write (a full disk leaves an incomplete file): an OSError saying why."""
+        import meshio
+
+        try:
+            postprocess(path, self.continuous) if "region" in self.fields else meshio.read(path, file_format="vtu")
+        except (ValueError, SyntaxError, KeyError, IndexError) as error:  # an ElementTree ParseError is a SyntaxError
+            raise _incomplete(path.parent) from error
 
     def _add(self, time: float, names: list[str]) -> None:
         """Enter the files of ``time`` into the collection (rank 0 writes it)."""
@@ -194,21 +205,46 @@ class VTKSeries:
         self._entries = entries
 
     def _write_pieces(self, time: float, step: int) -> Path:
-        """Under MPI: NGSolve writes ``{name}_{step:06d}_proc{r}.vtu``, rank r's part of the mesh (rank 0 has
-        none), and the ``.pvd`` of that step, which the collection replaces (not atomic, unlike the serial files)."""
+        """Under MPI: NGSolve writes rank r's part of the mesh (rank 0 has none) under a temporary name, which
+        rank r checks (and post-processes) and moves to ``{name}_{step:06d}_proc{r}.vtu`` atomically. A piece that
+        fails (NGSolve's writer does not report a full disk: its file is then incomplete) raises `WriteError` on
+        every rank, naming the first failed piece."""
         base = self.directory / self.filename(step).removesuffix(".vtu")
-        ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields), filename=str(base),
+        scratch = self.directory / f".{base.name}.part"
+        ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields), filename=str(scratch),
                       subdivision=self.subdivision).Do()
+        failed = None
         if parallel.is_root():
-            base.with_suffix(".pvd").unlink(missing_ok=True)
-        elif "region" in self.fields:
+            scratch.with_suffix(".pvd").unlink(missing_ok=True)
+        else:
+            written = scratch.with_name(f"{scratch.name}_proc{parallel.rank()}.vtu")
             piece = base.with_name(f"{base.name}_proc{parallel.rank()}.vtu")
-            with atomic.replacing(piece) as tmp:
-                os.replace(piece, tmp)
-                postprocess(tmp, self.continuous)
+            try:
+                self._move_piece(written, piece)
+            except atomic.WriteError as error:
+                failed = (str(error.path), error.errno, error.reason)
+        first = next((f for f in parallel.gather(failed) if f), None)
+        if first:
+            raise atomic.WriteError(Path(first[0]), OSError(first[1], first[2]))
         names = [f"{base.name}_proc{r}.vtu" for r in range(1, parallel.size())]
         self._add(time, names)
         return self.directory / names[0]
+
+    def _move_piece(self, written: Path, piece: Path) -> None:
+        """``written`` (NGSolve's file) to ``piece`` atomically, `_finish`-ed."""
+        try:
+            with atomic.replacing(piece) as tmp:
+                os.replace(written, tmp)
+                self._finish(tmp)
+        finally:
+            written.unlink(missing_ok=True)
+
+
+def _incomplete(folder: Path) -> OSError:
+    """Why a file written by NGSolve does not read back: a full disk where ``folder`` has (almost) no space left."""
+    if shutil.disk_usage(folder).free < 1 << 16:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    return OSError(errno.EIO, "NGSolve's VTKOutput wrote an incomplete file")
 
 
 def postprocess(path: Path, continuous: bool = False) -> None:
