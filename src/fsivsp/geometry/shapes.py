@@ -38,7 +38,7 @@ import netgen.meshing as nm
 import numpy as np
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
 
-from . import quadratic
+from .. import quadratic
 
 FLUID, SOLID = "fluid", "solid"
 INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
