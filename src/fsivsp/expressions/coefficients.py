@@ -14,6 +14,7 @@ from .symbols import T, X, Y, Z, as_expr
 if TYPE_CHECKING:  # ngsolve is imported lazily: parsing works without it
     import ngsolve
 
+
 def to_coefficient(expr: Any, t: Any) -> ngsolve.CoefficientFunction:
     """Turn a sympy expression (or vector/matrix of them) into an NGSolve CoefficientFunction.
 

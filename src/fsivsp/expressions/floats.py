@@ -13,6 +13,7 @@ from .symbols import T, as_expr
 
 Compiled = float | Callable[[float], float]
 
+
 def _number(expr: sympy.Expr) -> float:
     value = float(expr)
     if not math.isfinite(value):

@@ -17,6 +17,7 @@ from .params import CAD_SUFFIXES, dimension, existing_file, fail, one_line, path
 from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions
 from .shapes import occ_mesh
 
+
 @contextlib.contextmanager
 def _silenced():
     """Send what C++ code prints to stdout and stderr (OCC's parser messages) to /dev/null."""

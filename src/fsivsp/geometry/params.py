@@ -12,6 +12,7 @@ from .regions import GeometryError
 MESH_SUFFIXES = (".msh", ".vol", ".vol.gz")
 CAD_SUFFIXES = (".step", ".stp", ".brep", ".iges", ".igs")
 
+
 def fail(field: str, expected: str, got: Any) -> GeometryError:
     return GeometryError(f"geometry.{field}: expected {expected}, got {got!r}")
 
@@ -26,6 +27,7 @@ def positive(field: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value) or value <= 0:
         raise fail(field, "a positive number", value)
     return float(value)
+
 
 def point_parameter(field: str, value: Any, dim: int) -> tuple[float, ...]:
     try:

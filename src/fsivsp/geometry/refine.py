@@ -10,6 +10,7 @@ import numpy as np
 from .. import quadratic
 from .regions import GeometryError
 
+
 def without_geometry(mesh: ngs.Mesh) -> ngs.Mesh:
     """A copy of a 2D or 3D mesh that has forgotten its geometry, so that refinement puts the new
     nodes at the edge midpoints instead of projecting them onto curved boundaries."""

@@ -26,6 +26,7 @@ def paper_channel(maxh: float = 0.15, grading: float = 0.3) -> ngs.Mesh:
     geometry = OCCGeometry(Glue([solid, disk]), dim=2)
     return ngs.Mesh(geometry.GenerateMesh(maxh=maxh, grading=grading))
 
+
 DEFAULT_MAXH = {
     "fluid_in_solid": {2: 0.1, 3: 0.2},
     "solid_in_fluid": {2: 0.1, 3: 0.2},
