@@ -1,7 +1,7 @@
 """Safe user expressions of x, y, z, t.
 
 User text (forcing terms, initial data, exact solutions from TOML case files) is parsed by a small
-recursive-descent parser (`parse`) that builds sympy objects directly from a whitelist of tokens.
+recursive-descent parser (`parser`) that builds sympy objects directly from a whitelist of tokens.
 Nothing here ever calls ``eval``/``exec`` or the sympy helpers built on them (``sympify``,
 ``parse_expr``, ``lambdify``): the compilers to float callables (`floats`) and to NGSolve coefficient
 functions (`coefficients`) walk the sympy tree; `separate` writes an expression as a sum of time
@@ -10,7 +10,7 @@ factors times space factors. `functions` is the one table of the maths functions
 
 from .coefficients import to_coefficient
 from .floats import to_function
-from .parse import parse, parse_vector
+from .parser import parse, parse_vector
 from .separate import separate_time, separate_time_vector
 from .symbols import SPACE, T, X, Y, Z, ExpressionError
 
