@@ -1,0 +1,108 @@
+"""The region names the scheme expects, their checks and counts, the interface normal, locked cells."""
+from __future__ import annotations
+
+import ngsolve as ngs
+import numpy as np
+
+from .. import quadratic
+
+FLUID, SOLID = "fluid", "solid"
+INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
+INFLOW, OUTFLOW, SOLID_ENDS = "inflow", "outflow", "solid_ends"  # boundary parts of `elastic_tube`
+
+
+class GeometryError(ValueError):
+    """A mesh without the regions the formulation needs."""
+
+
+def check_regions(mesh: ngs.Mesh) -> None:
+    """Refuse a mesh that lacks a fluid, a solid or an interface."""
+    materials, boundaries = set(mesh.GetMaterials()), set(mesh.GetBoundaries())
+    for name in (FLUID, SOLID):
+        if name not in materials:
+            raise GeometryError(f"mesh: no volume region named '{name}' (found {sorted(materials)})")
+    if INTERFACE not in boundaries:
+        raise GeometryError(f"mesh: no boundary region named '{INTERFACE}' (found {sorted(boundaries)})")
+
+
+def check_distributable(mesh: ngs.Mesh) -> None:
+    """Refuse, under mpirun, a mesh file's quadratic cells (`quadratic`): they are kept on the whole mesh."""
+    cells = quadratic.quadratic_cells(mesh)
+    if cells is not None:
+        raise GeometryError(f"mesh file {cells.source}: second-order cells are not supported under mpirun "
+                            "(run serially, or write the file with first-order cells)")
+
+
+def region_counts(mesh: ngs.Mesh) -> dict[str, int]:
+    """Vertices, cells and boundary vertices per region (for reports and the paper's dof count)."""
+    def vertices(elements, name):
+        return {v.nr for el in elements if el.mat == name for v in el.vertices}
+
+    cells = list(mesh.Elements(ngs.VOL))
+    boundary = list(mesh.Elements(ngs.BND))
+    outer = vertices(boundary, FLUID_WALL) | vertices(boundary, SOLID_WALL)
+    return {
+        "vertices": mesh.nv,
+        "cells": mesh.ne,
+        "fluid_cells": sum(1 for el in cells if el.mat == FLUID),
+        "fluid_vertices": len(vertices(cells, FLUID)),
+        "boundary_vertices": len(outer),
+        "interface_vertices": len(vertices(boundary, INTERFACE)),
+    }
+
+
+def interface_normal(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+    """The unit normal on Γ pointing from Ω_F into Ω_S (the paper's n).
+
+    NGSolve orients boundary normals per boundary element; the sign is fixed here once
+    per mesh from the fluid cell adjacent to each interface facet. On a distributed mesh (MPI) that cell
+    may live on another rank than the facet's other copy: each rank signs the facets whose fluid cell it
+    has, and the signs are summed over the ranks.
+    """
+    normal = ngs.specialcf.normal(mesh.dim)
+    coords = (ngs.x, ngs.y, ngs.z)[: mesh.dim]
+    centre = (0.5,) if mesh.dim == 2 else (1 / 3, 1 / 3)
+    signs = ngs.SurfaceL2(mesh, order=0, definedon=mesh.Boundaries(INTERFACE))
+    sign = ngs.GridFunction(signs)
+    values, interface, bad = sign.vec.FV().NumPy(), [], None
+    values[:] = 0.0
+    for el in mesh.Elements(ngs.BND):
+        if el.mat != INTERFACE:
+            continue
+        facet = el.edges[0] if mesh.dim == 2 else el.faces[0]
+        fluid = [c for c in mesh[facet].elements if mesh[c].mat == FLUID]
+        interface.append(signs.GetDofNrs(el)[0])
+        if len(fluid) > 1 or not fluid and mesh.comm.size == 1:
+            bad = facet.nr
+        if len(fluid) != 1:
+            continue
+        trafo = mesh.GetTrafo(ngs.ElementId(el))  # must outlive the mesh point
+        point = trafo(*centre)
+        cell = [mesh[v].point for v in mesh[fluid[0]].vertices]
+        into_solid = sum(n * (c(point) - sum(p[i] for p in cell) / len(cell))
+                         for i, (n, c) in enumerate(zip(normal(point), coords)))
+        values[interface[-1]] = 1.0 if into_solid > 0 else -1.0
+    if mesh.comm.size > 1:
+        sign.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+        sign.vec.Cumulate()
+        if bad is None and np.any(np.abs(values[interface]) != 1.0):
+            bad = -1
+    if mesh.comm.Max(0 if bad is None else 1):  # the same decision on every rank
+        facet = f"facet {bad}" if bad is not None and bad >= 0 else "a facet"
+        raise GeometryError(f"mesh: interface {facet} does not border exactly one fluid cell")
+    return sign * normal
+
+
+def locked_fluid_cells(mesh: ngs.Mesh, dirichlet: str) -> list[int]:
+    """Fluid cells with every vertex on a Dirichlet boundary (Γ_F or Γ_S).
+
+    Typically a box corner meshed by a single tetrahedron: a continuous velocity without
+    interior dofs vanishes on it, and with Taylor–Hood the pressure at such a corner is
+    seen by no free velocity dof (the step-1 matrix is singular).
+    """
+    if not dirichlet:
+        return []
+    region = mesh.Boundaries(dirichlet).Mask()
+    walled = {v.nr for el in mesh.Elements(ngs.BND) if region[el.index] for v in el.vertices}
+    return [el.nr for el in mesh.Elements(ngs.VOL)
+            if el.mat == FLUID and all(v.nr in walled for v in el.vertices)]
