@@ -1,12 +1,16 @@
 """Faults a long run meets (docs/commands.md, "Exit codes"): SIGTERM in the time loop (checkpoint, summary,
-one line, exit 143, resume bit-identical), SIGTERM during set-up (at once, nothing written), a full disk (one
+one line, exit 143, resume bit-identical), SIGTERM or SIGINT during set-up (at once, nothing written), a full disk (one
 line, exit 4, no half-written file in the series). The signals are sent by the run to itself at a given step,
 so that the tests do not race the run."""
 import errno
 import json
 import os
 import signal
+import subprocess
+import sys
+import time
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import meshio
 import pytest
@@ -16,6 +20,8 @@ from fsivsp.cli import main
 from fsivsp.scheme import Scheme
 
 from test_run import write_case
+
+ROOT = Path(__file__).parents[1]
 
 
 def signal_at_step(monkeypatch, step: int, signum: int = signal.SIGTERM) -> None:
@@ -52,15 +58,39 @@ def test_signal_in_the_loop_then_resume_is_bit_identical(tmp_path, monkeypatch, 
     assert resumed["energy"] == whole["energy"]
 
 
-def test_sigterm_during_set_up_stops_at_once(tmp_path, monkeypatch, capsys):
-    def terminated(*args, **kwargs):
-        os.kill(os.getpid(), signal.SIGTERM)
-        raise AssertionError("the set-up went on after SIGTERM")
-    monkeypatch.setattr(Scheme, "__init__", terminated)
+@pytest.mark.parametrize("signum, code, line", [(signal.SIGTERM, 143, "terminated during set-up: nothing written"),
+                                                (signal.SIGINT, 130, "interrupted during set-up: nothing written")])
+def test_signal_during_set_up_stops_at_once(tmp_path, monkeypatch, capsys, signum, code, line):
+    def stopped(*args, **kwargs):
+        os.kill(os.getpid(), signum)
+        raise AssertionError("the set-up went on after the signal")
+    monkeypatch.setattr(Scheme, "__init__", stopped)
     out = tmp_path / "out"
-    assert main(["run", str(write_case(tmp_path)), "--out", str(out), "--quiet"]) == 143
-    assert capsys.readouterr().err.strip().splitlines() == ["terminated during set-up: nothing written"]
-    assert not (out / "checkpoints").exists() and not (out / "summary.json").exists()
+    assert main(["run", str(write_case(tmp_path)), "--out", str(out), "--quiet"]) == code
+    assert capsys.readouterr().err.strip().splitlines() == [line]
+    assert not out.exists() or list(out.iterdir()) == []   # no checkpoints, no summary.json, no series
+
+
+@pytest.mark.parametrize("command", [["study", str(ROOT / "examples" / "fluid_over_solid_2d.toml"), "--levels", "0-1"],
+                                     ["paper", "--dt", "1e-2", "--levels", "0-1"]], ids=["study", "paper"])
+def test_ctrl_c_in_study_and_paper_is_one_line(monkeypatch, capsys, command):
+    signal_at_step(monkeypatch, 2, signal.SIGINT)
+    assert main([*command, "--quiet"]) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["interrupted"]
+
+
+def test_ctrl_c_in_paper_all_stops_its_workers_without_a_traceback(tmp_path):
+    """Ctrl-C reaches the terminal's whole process group: the workers ignore it, the parent ends them."""
+    paper = subprocess.Popen([sys.executable, "-m", "fsivsp.cli", "paper", "--all", "--levels", "0-1", "--jobs", "2",
+                              "--quiet", "--out", str(tmp_path)], stderr=subprocess.PIPE, text=True,
+                             start_new_session=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
+    children = Path(f"/proc/{paper.pid}/task/{paper.pid}/children")
+    while paper.poll() is None and len(children.read_text().split()) < 2:
+        time.sleep(0.1)
+    time.sleep(2)   # the workers are importing or running their first job
+    os.killpg(paper.pid, signal.SIGINT)
+    assert paper.wait(timeout=30) == 130
+    assert paper.stderr.read().strip().splitlines() == ["interrupted"]
 
 
 def test_full_disk_stops_with_one_line_and_leaves_a_readable_series(tmp_path, monkeypatch, capsys):

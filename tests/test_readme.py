@@ -4,6 +4,7 @@
 expected output); every ``fsivsp`` line of a ``sh`` block is in `COMMANDS`, which says whether it runs
 (cheap) or only parses (its case files and paths must exist); the ``console`` example is what the CLI prints.
 """
+import importlib.util
 import os
 import re
 import shlex
@@ -83,6 +84,29 @@ def test_python_examples_run(page, code, workdir):
 
 def test_every_documented_command_is_checked():
     assert sorted(set(commands())) == sorted(COMMANDS)
+
+
+@pytest.fixture(scope="module")
+def check_readme():
+    """tools/check_readme.py as a module."""
+    spec = importlib.util.spec_from_file_location("check_readme", ROOT / "tools" / "check_readme.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    return tool
+
+
+def test_check_readme_reads_the_commands_as_pasted(check_readme):
+    text = "```sh\n# a comment\nmake demo   # why\n\nfsivsp run a.toml \\\n    --out b\n```\n```python\nx = 1\n```\n"
+    assert check_readme.readme_commands(text) == ["make demo   # why", "fsivsp run a.toml --out b"]
+    assert check_readme.shown("make demo   # why") == "make demo"
+
+
+def test_check_readme_skips_the_long_commands(check_readme):
+    """Its default skips (`LONG`) are the README's fsivsp commands that are only parsed here."""
+    readme = [check_readme.shown(line).removeprefix(".venv/bin/")
+              for line in check_readme.readme_commands((ROOT / "README.md").read_text())]
+    long = [line for line in readme if any(re.search(p, line) for p in check_readme.LONG)]
+    assert [line for line in readme if COMMANDS.get(line) == PARSE] == [line for line in long if line in COMMANDS]
 
 
 @pytest.mark.parametrize("command", [c for c in COMMANDS if COMMANDS[c] == PARSE])

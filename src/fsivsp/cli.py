@@ -385,10 +385,10 @@ def run_command(args) -> int:
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
     from .overrides import parse_overrides
-    from .run import SolveDiverged, Terminated, raise_terminated
+    from .run import STOP_SIGNALS, SolveDiverged, Terminated, raise_terminated
     from .runner import run
 
-    previous = signal.signal(signal.SIGTERM, raise_terminated)  # set-up: stop at once
+    previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
     try:
         out = args.out or Path(args.case.stem)
         summary = run(args.case, out, overrides=parse_overrides(args.overrides), resume=args.resume,
@@ -408,7 +408,8 @@ def run_command(args) -> int:
             print(stop.message(), file=sys.stderr)
         return stop.exit_code
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
     threads = summary["threads"]
     print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
           f"thread{'s' * (threads > 1)}; results in {out}")
@@ -460,6 +461,15 @@ def matrix_table(args) -> int:
     return 0 if all(r["passed"] for r in records) else 1
 
 
+def thread_lock_bars() -> None:
+    """In a worker: tqdm's lock a thread lock (its default's semaphores are reported leaked when Ctrl-C ends it)."""
+    import threading
+
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
+
+
 def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
     """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
     from .progress import tqdm
@@ -467,7 +477,12 @@ def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
     if processes == 1:
         return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]
     context = multiprocessing.get_context("spawn")
-    with context.Pool(processes) as pool:
+    interrupt = signal.signal(signal.SIGINT, signal.SIG_IGN)  # the workers inherit it: Ctrl-C stops this process only
+    try:
+        pool = context.Pool(processes, initializer=thread_lock_bars)
+    finally:
+        signal.signal(signal.SIGINT, interrupt)
+    with pool:
         return list(tqdm(pool.imap_unordered(paper_job, jobs), total=len(jobs), disable=quiet, unit="run"))
 
 

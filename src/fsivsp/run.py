@@ -232,23 +232,25 @@ def raise_terminated(signum, _frame) -> None:
     raise Terminated(signum)
 
 
+#: The signals that stop a run: during set-up at once (`raise_terminated`), in the loop after the step (`_Interrupt`).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 class _Interrupt:
     """SIGINT and SIGTERM set a flag; the time loop finishes the current step, checkpoints and stops."""
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self):
         self.requested = 0
 
     def __enter__(self):
-        self._previous = [signal.signal(signum, self._handle) for signum in self.SIGNALS]
+        self._previous = [signal.signal(signum, self._handle) for signum in STOP_SIGNALS]
         return self
 
     def _handle(self, signum, _frame):
         self.requested = signum
 
     def __exit__(self, *exc):
-        for signum, previous in zip(self.SIGNALS, self._previous):
+        for signum, previous in zip(STOP_SIGNALS, self._previous):
             signal.signal(signum, previous)
 
 
