@@ -30,7 +30,7 @@ COMMANDS = {
     "fsivsp study examples/time_convergence_2d.toml --dt 0.1,0.05,0.025,0.0125 --scheme theta --json time.json": PARSE,
     "fsivsp paper --all --scheme bdf2": PARSE,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d": RUN,
-    "fsivsp matrix --readme docs/verification.md": PARSE,
+    "fsivsp matrix --slow --readme docs/verification.md": PARSE,
     "fsivsp study examples/fluid_over_solid_2d.toml --levels 0-3 --json study.json": RUN,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d --resume": RUN,
     "fsivsp run examples/pressure_wave_2d.toml --out wave2d --dry-run": RUN,
@@ -143,7 +143,7 @@ def test_relative_links_exist(page):
 
 
 def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkeypatch, capsys):
-    """``fsivsp matrix --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix)."""
+    """``fsivsp matrix --slow --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix)."""
     import fsivsp.verification
     from fsivsp.cli import main
 
@@ -155,3 +155,12 @@ def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkey
     head, table = text.split("<!-- matrix:begin -->\n")[0], capsys.readouterr().out.strip()
     tail = text.split("<!-- matrix:end -->")[1]
     assert page.read_text() == f"{head}<!-- matrix:begin -->\n{table}\n<!-- matrix:end -->{tail}"
+
+
+def test_matrix_refuses_to_rewrite_the_committed_table_without_slow(capsys):
+    """Without ``--slow`` the matrix has fewer rows than docs/verification.md: refused in one line, nothing run."""
+    from fsivsp.cli import main
+
+    assert main(["matrix", "--quiet", "--readme", str(ROOT / "docs" / "verification.md")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "add --slow" in err[0]
