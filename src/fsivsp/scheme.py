@@ -29,7 +29,7 @@ from .manufactured import grad
 from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
-from .threads import current as current_threads
+from .threads import current as current_threads, sequential
 from .timeschemes import BDF2, Theta
 
 
@@ -75,7 +75,8 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
     gf = ngs.GridFunction(spaces.velocity)
     if spaces.family == "mini":
         mesh = spaces.mesh
-        linear = ngs.GridFunction(ngs.VectorH1(mesh, order=1))
+        with sequential():   # the same element colouring in every process (`Set` adds in its order)
+            linear = ngs.GridFunction(ngs.VectorH1(mesh, order=1))
         linear.Set(values)
         # The hierarchical H1 basis numbers the vertex dofs first in each component.
         for mine, theirs in zip(gf.components, linear.components):

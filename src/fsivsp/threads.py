@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Iterator
 
 import ngsolve as ngs
+from pyngcore import SuspendTaskManager
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
@@ -69,6 +70,20 @@ def _set_mkl(threads: int) -> int | None:
     previous = runtime.MKL_Get_Max_Threads()
     runtime.MKL_Set_Num_Threads(threads)
     return previous
+
+
+@contextlib.contextmanager
+def sequential() -> Iterator[None]:
+    """Run the block with NGSolve's TaskManager suspended, on the calling thread alone. A finite element space
+    colours its elements when it is made (`FESpace` update): under the TaskManager in parallel, with locks, so
+    that the colouring, and with it the order in which threaded assembly adds element matrices, varies from
+    one process to the next (1 ulp in some entries). Spaces made here are coloured the same in every process;
+    assembly over them may still thread."""
+    suspended = SuspendTaskManager()
+    try:
+        yield
+    finally:
+        del suspended
 
 
 @contextlib.contextmanager
