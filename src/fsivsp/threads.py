@@ -17,7 +17,6 @@ from pathlib import Path
 from typing import Iterator
 
 import ngsolve as ngs
-from pyngcore import SuspendTaskManager
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
@@ -72,18 +71,32 @@ def _set_mkl(threads: int) -> int | None:
     return previous
 
 
+#: The TaskManagers `using` runs, innermost last (`sequential` stops and restarts the last).
+_MANAGERS: list = []
+
+
+def _started():
+    """A running NGSolve TaskManager (of `ngs.SetNumThreads`'s count)."""
+    manager = ngs.TaskManager()
+    manager.__enter__()
+    return manager
+
+
 @contextlib.contextmanager
 def sequential() -> Iterator[None]:
-    """Run the block with NGSolve's TaskManager suspended, on the calling thread alone. A finite element space
-    colours its elements when it is made (`FESpace` update): under the TaskManager in parallel, with locks, so
-    that the colouring, and with it the order in which threaded assembly adds element matrices, varies from
-    one process to the next (1 ulp in some entries). Spaces made here are coloured the same in every process;
-    assembly over them may still thread."""
-    suspended = SuspendTaskManager()
+    """Run the block without NGSolve's TaskManager, on the calling thread alone (the one `using` runs is
+    stopped and started again after). A finite element space colours its elements when it is made (`FESpace`
+    update), in parallel with locks under the TaskManager, so that the colouring, and with it the order in which
+    assembly adds the element matrices, varied from one space and process to the next (1 ulp in some entries).
+    Spaces made here are coloured the same in every process; assembly over them may still thread."""
+    if not _MANAGERS:
+        yield
+        return
+    _MANAGERS.pop().__exit__(None, None, None)
     try:
         yield
     finally:
-        del suspended
+        _MANAGERS.append(_started())
 
 
 @contextlib.contextmanager
@@ -93,10 +106,13 @@ def using(threads: int | None = None) -> Iterator[int]:
     count = DEFAULT if threads is None else check(threads, "threads")
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
+    if count > 1:
+        _MANAGERS.append(_started())
     try:
-        with ngs.TaskManager() if count > 1 else contextlib.nullcontext():
-            yield count
+        yield count
     finally:
+        if count > 1:
+            _MANAGERS.pop().__exit__(None, None, None)
         ngs.SetNumThreads(before)
         if mkl_before is not None:
             _set_mkl(mkl_before)

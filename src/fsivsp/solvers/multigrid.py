@@ -253,12 +253,12 @@ def algebraic_multigrid(mesh: ngs.Mesh, integrand, dirichlet: str, definedon: st
     order), where the mesh has no refinement hierarchy; and what must stay alive with it."""
     from ..threads import sequential
 
-    with sequential():   # the same element colouring in every process
+    with sequential():   # the same colouring and hierarchy in every process (under threads they vary)
         p1 = ngs.H1(mesh, order=1, dirichlet=dirichlet, definedon=definedon) if definedon else \
             ngs.H1(mesh, order=1, dirichlet=dirichlet)
-    form = ngs.BilinearForm(p1)
-    form += integrand(*p1.TnT())
-    amg = ngs.Preconditioner(form, "h1amg")
-    form.Assemble()
+        form = ngs.BilinearForm(p1)
+        form += integrand(*p1.TnT())
+        amg = ngs.Preconditioner(form, "h1amg")
+        form.Assemble()
     return amg.mat, (p1, form, amg)
 
