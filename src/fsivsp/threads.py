@@ -3,9 +3,9 @@
     with fsivsp.threads.using(2):
         fsivsp.study(case, range(3))
 
-Default for now: one thread (`DEFAULT`), the sequential code, bit-identical from run to run: on more threads
-a run's set-up is not yet reproducible between processes (docs/solvers.md). `default_threads` is the count
-to ask for on this machine: the cores this process may use, divided among the MPI ranks of this node.
+Default (`default_threads`): the cores this process may use, divided among the MPI ranks of this node. A run is
+bit-identical from one process to the next for a given count (spaces made on one thread, `sequential`, and
+PARDISO's reproducibility mode); between counts it agrees to round-off (docs/solvers.md, "Threads").
 """
 from __future__ import annotations
 
@@ -20,8 +20,6 @@ import ngsolve as ngs
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
-#: The threads of a run without ``threads``: the cores (`default_threads`) once runs on them are reproducible.
-DEFAULT = 1
 
 
 def default_threads() -> int:
@@ -101,9 +99,9 @@ def sequential() -> Iterator[None]:
 
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
-    """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
+    """Run the block with ``threads`` threads (None: `default_threads`): NGSolve's TaskManager (not entered
     for 1 thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
-    count = DEFAULT if threads is None else check(threads, "threads")
+    count = default_threads() if threads is None else check(threads, "threads")
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
     if count > 1:
