@@ -29,7 +29,7 @@ from .manufactured import grad
 from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
-from .threads import current as current_threads, sequential
+from .threads import current as current_threads, integrate, sequential
 from .timeschemes import BDF2, Theta
 
 
@@ -287,7 +287,7 @@ class Scheme:
         form = ngs.LinearForm(spaces.mixed)
         form += forms.integral(InnerProduct(offset, forms.eps(w)), spaces, SOLID)
         self._offset_load.data = form.Assemble().vec
-        self._offset_energy = ngs.Integrate(self._compliance(offset, offset), mesh, definedon=solid)
+        self._offset_energy = integrate(self._compliance(offset, offset), mesh, definedon=solid)
 
     def _projected_state(self) -> ngs.BaseVector:
         """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),

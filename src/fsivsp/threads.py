@@ -97,6 +97,14 @@ def sequential() -> Iterator[None]:
         _MANAGERS.append(_started())
 
 
+def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
+    """``ngs.Integrate(cf, mesh, **kwargs)`` outside the TaskManager (`sequential`): under it the element sums
+    are added in an order that varies from call to call (1 ulp: 2 values in 30 calls on the paper's level 2);
+    on one thread the same bits every time, and faster there (1.5 against 5.6 ms on that mesh)."""
+    with sequential():
+        return ngs.Integrate(cf, mesh, **kwargs)
+
+
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
     """Run the block with ``threads`` threads (None: `default_threads`): NGSolve's TaskManager (not entered
