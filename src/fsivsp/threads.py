@@ -4,8 +4,9 @@
         fsivsp.study(case, range(3))
 
 Default (`default_threads`): the cores this process may use, divided among the MPI ranks of this node. A run is
-bit-identical from one process to the next for a given count (spaces made on one thread, `sequential`, and
-PARDISO's reproducibility mode); between counts it agrees to round-off (docs/solvers.md, "Threads").
+bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made on one
+thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
+(docs/solvers.md, "Threads").
 """
 from __future__ import annotations
 
