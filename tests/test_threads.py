@@ -71,6 +71,19 @@ def test_thread_counts_agree_to_round_off(solver):
     assert abs(two - one) <= 1e-10 * abs(one)
 
 
+def test_run_l2_norms_agree_between_thread_counts(tmp_path):
+    """`fsivsp run` on 1 and on 2 threads: the summary's final L² norms agree to 1e-10 relative."""
+    from test_run import write_case
+
+    case = write_case(tmp_path, T=0.001, every=1000)
+    norms = []
+    for threads in ("1", "2"):
+        assert main(["run", str(case), "--out", str(tmp_path / threads), "--threads", threads, "--quiet"]) == 0
+        norms.append(json.loads((tmp_path / threads / "summary.json").read_text())["l2_norms"])
+    for name, one in norms[0].items():
+        assert abs(norms[1][name] - one) <= 1e-10 * abs(one), name
+
+
 @pytest.mark.parametrize("value", ["0", "abc", "1.5"])
 def test_bad_threads_is_one_line_exit_2(value, capsys):
     assert main(["run", "examples/fluid_in_solid_3d.toml", "--threads", value]) == 2
