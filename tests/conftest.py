@@ -1,10 +1,9 @@
 import ngsolve as ngs
 import pytest
 
-# Code the tests call directly (schemes, solvers, forms) runs on one NGSolve thread, the sequential code the
-# tests' reference values were measured with; the package itself sets no thread count at import (issue 24).
-# Commands (`main([...])`, `fsivsp ...` in a process) run as a user's do, on `threads.default_threads()` unless
-# given `--threads`: bit-identical from process to process for a given count.
+# The suite's in-process runs on one NGSolve thread, fsivsp's default for runs (`fsivsp.threads.DEFAULT`), which
+# is bit-identical from run to run; the package itself sets no thread count at import (issue 24). Tests of more
+# threads enter `fsivsp.threads.using(n)` or start a process with `--threads n`.
 ngs.SetNumThreads(1)
 
 from fsivsp import forms

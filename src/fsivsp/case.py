@@ -118,7 +118,7 @@ class Discretisation:
     curved: bool = True
     tolerance: float = TOLERANCE
     max_iterations: int = MAX_ITERATIONS
-    threads: int | None = None   # None: `threads.default_threads`
+    threads: int | None = None   # None: `threads.DEFAULT`
     petsc: dict[str, str] = field(default_factory=dict)
 
 

@@ -16,7 +16,7 @@ from .checkpoint import CheckpointError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
-from .threads import default_threads, using
+from .threads import using
 from .timeschemes import SCHEMES
 
 MAX_LEVEL = 6
@@ -159,7 +159,7 @@ def build_parser() -> Parser:
     paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
                        help="with --all: parallel processes (default: all cores)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(paper, "the cores of this process; with --all, shared among its --jobs")
+    threads_option(paper, "1; with --all, shared among its --jobs")
     paper.set_defaults(handler=paper_command)
 
     study = commands.add_parser("study", help="convergence study of a manufactured solution from a case file",
@@ -175,7 +175,7 @@ def build_parser() -> Parser:
                        help="write one record per level (per time step with --dt) to PATH")
     petsc_argument(study)
     study.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(study, "the case's [discretisation] threads, else the cores of this process")
+    threads_option(study, "the case's [discretisation] threads, else 1")
     study.set_defaults(handler=study_command)
 
     run = commands.add_parser("run", help="run a case file: ParaView series, probes, plots, checkpoints",
@@ -189,7 +189,7 @@ def build_parser() -> Parser:
                      help="print the unknowns and the estimated memory, time per step and output size; run nothing")
     run.add_argument("--force", action="store_true",
                      help="run even when the estimated memory exceeds MemAvailable or the output the free space")
-    threads_option(run, "the case's [discretisation] threads, else the cores of this process")
+    threads_option(run, "the case's [discretisation] threads, else 1")
     run.set_defaults(handler=run_command)
 
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
@@ -201,7 +201,7 @@ def build_parser() -> Parser:
     matrix.add_argument("--readme", type=Path, default=None, metavar="PATH",
                         help="replace the table between <!-- matrix:begin --> and <!-- matrix:end --> in PATH")
     matrix.add_argument("--quiet", action="store_true", help="no progress bar")
-    threads_option(matrix, "the cores of this process")
+    threads_option(matrix, "1")
     matrix.set_defaults(handler=matrix_command)
     return parser
 
@@ -301,7 +301,7 @@ def paper_command(args) -> int:
             write_json(args.json, records)
         return 0
 
-    threads = args.threads or default_threads()
+    threads = args.threads or args.jobs
     per_job = max(1, threads // args.jobs)   # the processes share the cores with their threads
     jobs = [(dt, level, options, per_job) for dt in TIME_STEPS for level in args.levels]
     jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first

@@ -3,10 +3,10 @@
     with fsivsp.threads.using(2):
         fsivsp.study(case, range(3))
 
-Default (`default_threads`): the cores this process may use, divided among the MPI ranks of this node. A run is
-bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made on one
-thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
-(docs/solvers.md, "Threads").
+A run is bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made
+on one thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
+(docs/solvers.md, "Threads"). Default: one thread (`DEFAULT`); `default_threads` is the count to ask for on a
+machine of one's own: the cores this process may use, divided among the MPI ranks of this node.
 """
 from __future__ import annotations
 
@@ -21,6 +21,11 @@ import ngsolve as ngs
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
+#: The threads of a run without ``threads``: one, although runs on more are reproducible now. On this shared 2-core
+#: machine two threads made small runs slower whenever other jobs had the cores (NGSolve's and MKL's workers wait
+#: for a core at every short operation): `examples/pressure_wave_2d.toml` 9.6 s on one thread, 10.3 s on two at
+#: load 1 and 18.5 s at load 5 (over the README test's 60 s with the suite beside it), docs/solvers.md.
+DEFAULT = 1
 
 
 def default_threads() -> int:
@@ -108,9 +113,9 @@ def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
 
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
-    """Run the block with ``threads`` threads (None: `default_threads`): NGSolve's TaskManager (not entered
+    """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
     for 1 thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
-    count = default_threads() if threads is None else check(threads, "threads")
+    count = DEFAULT if threads is None else check(threads, "threads")
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
     if count > 1:
