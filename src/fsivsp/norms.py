@@ -23,6 +23,7 @@ import sympy
 from .forms import DATA_BONUS, region_integral
 from .projection import gram_solver
 from .solvers import compact
+from .threads import integrate
 from .expressions import SPACE, separate_time_vector, to_coefficient, to_function
 
 # A norm is a sum of parts ∫_region op(u)·op(u): (region or None for Ω, op on discrete functions, op on exact fields).
@@ -185,7 +186,7 @@ class ErrorNorm:
 
     def _integrate(self, cf, region) -> float:
         mesh = self.space.mesh
-        return ngs.Integrate(cf, mesh, definedon=mesh.Materials(region) if region else None, order=self.intorder)
+        return integrate(cf, mesh, definedon=mesh.Materials(region) if region else None, order=self.intorder)
 
     def _used_dofs(self) -> np.ndarray:
         """The dofs the norm sees (nonzero diagonal of G), as a mask."""

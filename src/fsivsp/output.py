@@ -30,6 +30,7 @@ import ngsolve as ngs
 from . import atomic, parallel
 from .case import CaseError
 from .geometry import FLUID, SOLID
+from .threads import sequential
 
 #: ``region`` values in the VTU files (point and cell data, for ParaView's Threshold)
 REGIONS = {FLUID: 0, SOLID: 1}
@@ -60,7 +61,8 @@ class SolidStress:
     def __init__(self, scheme):
         mesh, self.scheme, self.dim = scheme.spaces.mesh, scheme, scheme.spaces.mesh.dim
         order = scheme.spaces.stress.globalorder
-        self.values = ngs.GridFunction(ngs.L2(mesh, order=order, definedon=mesh.Materials("solid")) ** (self.dim ** 2))
+        with sequential():
+            self.values = ngs.GridFunction(ngs.L2(mesh, order=order, definedon=mesh.Materials("solid")) ** (self.dim ** 2))
 
     def __call__(self) -> None:
         self.values.Set(_components(self.scheme.stress, self.dim))

@@ -18,6 +18,8 @@ from typing import Mapping
 import ngsolve as ngs
 import numpy as np
 
+from .threads import sequential
+
 #: the attribute of an ``ngsolve.Mesh`` (the straight mesh on the corners) that holds its `QuadraticCells`
 ATTRIBUTE = "quadratic_cells"
 
@@ -49,7 +51,8 @@ class QuadraticCells:
 
     def deformation(self, mesh: ngs.Mesh) -> ngs.GridFunction:
         """D on ``mesh``: this mesh or a uniform refinement of it, straight."""
-        field = ngs.GridFunction(ngs.VectorH1(mesh, order=2))
+        with sequential():   # the same element colouring in every process (`Set` adds in its order)
+            field = ngs.GridFunction(ngs.VectorH1(mesh, order=2))
         field.Set(self.displacement)
         return field
 

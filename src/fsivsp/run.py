@@ -259,10 +259,11 @@ def l2_norms(scheme) -> dict[str, float]:
     import ngsolve as ngs
 
     from .geometry import FLUID, SOLID
+    from .threads import integrate
     mesh, sigma = scheme.spaces.mesh, scheme.stress
-    return {"velocity": math.sqrt(ngs.Integrate(ngs.InnerProduct(scheme.velocity, scheme.velocity), mesh)),
-            "pressure": math.sqrt(ngs.Integrate(scheme.pressure**2, mesh, definedon=mesh.Materials(FLUID))),
-            "stress": math.sqrt(max(ngs.Integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)), 0.0))}
+    return {"velocity": math.sqrt(integrate(ngs.InnerProduct(scheme.velocity, scheme.velocity), mesh)),
+            "pressure": math.sqrt(integrate(scheme.pressure**2, mesh, definedon=mesh.Materials(FLUID))),
+            "stress": math.sqrt(max(integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)), 0.0))}
 
 
 def check_distributed(case: RunCase) -> None:

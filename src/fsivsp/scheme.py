@@ -30,7 +30,7 @@ from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
 from .spaces import Spaces
 from .stages import stage
-from .threads import current as current_threads
+from .threads import current as current_threads, integrate, sequential
 from .timeschemes import BDF2, Theta
 
 
@@ -83,7 +83,8 @@ def interpolate(spaces: Spaces, values: ngs.CoefficientFunction) -> ngs.GridFunc
     gf = ngs.GridFunction(spaces.velocity)
     if spaces.family == "mini":
         mesh = spaces.mesh
-        linear = ngs.GridFunction(ngs.VectorH1(mesh, order=1))
+        with sequential():   # the same element colouring in every process (`Set` adds in its order)
+            linear = ngs.GridFunction(ngs.VectorH1(mesh, order=1))
         linear.Set(values)
         # The hierarchical H1 basis numbers the vertex dofs first in each component.
         for mine, theirs in zip(gf.components, linear.components):
@@ -298,7 +299,7 @@ class Scheme:
         form = ngs.LinearForm(spaces.mixed)
         form += forms.integral(InnerProduct(offset, forms.eps(w)), spaces, SOLID)
         self._offset_load.data = form.Assemble().vec
-        self._offset_energy = ngs.Integrate(self._compliance(offset, offset), mesh, definedon=solid)
+        self._offset_energy = integrate(self._compliance(offset, offset), mesh, definedon=solid)
 
     def _projected_state(self) -> ngs.BaseVector:
         """(v⁰_h, p⁰_h) from `forms.initial_projection` (Stokes (22) on Ω_F, H¹ (23) on Ω_S),

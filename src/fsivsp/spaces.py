@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import ngsolve as ngs
 
 from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, locked_fluid_cells
+from .threads import sequential
 
 FAMILIES = ("mini", "taylor_hood")
 
@@ -82,6 +83,7 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
     return space, bubble
 
 
+@sequential()   # the same element colouring in every process (threaded assembly adds in its order)
 def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
                  dirichlet: str = f"{FLUID_WALL}|{SOLID_WALL}") -> Spaces:
     """V_h, Q_h, S_h of the MINI element (5.2.1) or the generalized Taylor–Hood

@@ -3,9 +3,10 @@
     with fsivsp.threads.using(2):
         fsivsp.study(case, range(3))
 
-Default for now: one thread (`DEFAULT`), the sequential code, bit-identical from run to run: on more threads
-a run's set-up is not yet reproducible between processes (docs/solvers.md). `default_threads` is the count
-to ask for on this machine: the cores this process may use, divided among the MPI ranks of this node.
+A run is bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made
+on one thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
+(docs/solvers.md, "Threads"). Default: one thread (`DEFAULT`); `default_threads` is the count to ask for on a
+machine of one's own: the cores this process may use, divided among the MPI ranks of this node.
 """
 from __future__ import annotations
 
@@ -20,7 +21,10 @@ import ngsolve as ngs
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
-#: The threads of a run without ``threads``: the cores (`default_threads`) once runs on them are reproducible.
+#: The threads of a run without ``threads``: one, although runs on more are reproducible now. On this shared 2-core
+#: machine two threads made small runs slower whenever other jobs had the cores (NGSolve's and MKL's workers wait
+#: for a core at every short operation): `examples/pressure_wave_2d.toml` 9.6 s on one thread, 10.3 s on two at
+#: load 1 and 18.5 s at load 5 (over the README test's 60 s with the suite beside it), docs/solvers.md.
 DEFAULT = 1
 
 
@@ -71,6 +75,42 @@ def _set_mkl(threads: int) -> int | None:
     return previous
 
 
+#: The TaskManagers `using` runs, innermost last (`sequential` stops and restarts the last).
+_MANAGERS: list = []
+
+
+def _started():
+    """A running NGSolve TaskManager (of `ngs.SetNumThreads`'s count)."""
+    manager = ngs.TaskManager()
+    manager.__enter__()
+    return manager
+
+
+@contextlib.contextmanager
+def sequential() -> Iterator[None]:
+    """Run the block without NGSolve's TaskManager, on the calling thread alone (the one `using` runs is
+    stopped and started again after). A finite element space colours its elements when it is made (`FESpace`
+    update), in parallel with locks under the TaskManager, so that the colouring, and with it the order in which
+    assembly adds the element matrices, varied from one space and process to the next (1 ulp in some entries).
+    Spaces made here are coloured the same in every process; assembly over them may still thread."""
+    if not _MANAGERS:
+        yield
+        return
+    _MANAGERS.pop().__exit__(None, None, None)
+    try:
+        yield
+    finally:
+        _MANAGERS.append(_started())
+
+
+def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
+    """``ngs.Integrate(cf, mesh, **kwargs)`` outside the TaskManager (`sequential`): under it the element sums
+    are added in an order that varies from call to call (1 ulp: 2 values in 30 calls on the paper's level 2);
+    on one thread the same bits every time, and faster there (1.5 against 5.6 ms on that mesh)."""
+    with sequential():
+        return ngs.Integrate(cf, mesh, **kwargs)
+
+
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
     """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
@@ -78,10 +118,13 @@ def using(threads: int | None = None) -> Iterator[int]:
     count = DEFAULT if threads is None else check(threads, "threads")
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
+    if count > 1:
+        _MANAGERS.append(_started())
     try:
-        with ngs.TaskManager() if count > 1 else contextlib.nullcontext():
-            yield count
+        yield count
     finally:
+        if count > 1:
+            _MANAGERS.pop().__exit__(None, None, None)
         ngs.SetNumThreads(before)
         if mkl_before is not None:
             _set_mkl(mkl_before)

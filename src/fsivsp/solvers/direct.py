@@ -47,6 +47,8 @@ import ngsolve as ngs
 from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
+from ..threads import current as current_threads
+
 __all__ = [
     "METHODS",
     "SolverError",
@@ -84,6 +86,11 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: entries and solve time on level 4. ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum
 #: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
 PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": "auto"}
+
+#: PARDISO's conditional numerical reproducibility (iparm[33]), on more than one thread: the factorisation on
+#: this many OpenMP threads (the run's, which the binding gives MKL) in a fixed order, the same factors from one
+#: process to the next. Not on one thread, whose factors stay those of before (CNR changes them at round-off).
+CNR_THREADS = "iparm33"
 
 #: The inverse type `MatchingPardiso` is registered under with NGSolve.
 PARDISO_INVERSE = "fsivsp_pardiso"
@@ -475,6 +482,8 @@ class DirectSolver:
         if method == "pardiso":
             opts.update(PARDISO_FLAGS)
             opts["symmetric"] = is_symmetric(matrix)
+            if current_threads() > 1:
+                opts[CNR_THREADS] = current_threads()
         opts.update(options or {})
         if method == "umfpack" and _stores_lower_triangle(matrix):
             # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the

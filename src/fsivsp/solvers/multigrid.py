@@ -251,11 +251,14 @@ class TwoLevel(_Operator):
 def algebraic_multigrid(mesh: ngs.Mesh, integrand, dirichlet: str, definedon: str | None = None):
     """NGSolve's ``h1amg`` for ∫ integrand(u, w) on continuous P1 (the vertex dofs of any H1 space, in vertex
     order), where the mesh has no refinement hierarchy; and what must stay alive with it."""
-    p1 = ngs.H1(mesh, order=1, dirichlet=dirichlet, definedon=definedon) if definedon else \
-        ngs.H1(mesh, order=1, dirichlet=dirichlet)
-    form = ngs.BilinearForm(p1)
-    form += integrand(*p1.TnT())
-    amg = ngs.Preconditioner(form, "h1amg")
-    form.Assemble()
+    from ..threads import sequential
+
+    with sequential():   # the same colouring and hierarchy in every process (under threads they vary)
+        p1 = ngs.H1(mesh, order=1, dirichlet=dirichlet, definedon=definedon) if definedon else \
+            ngs.H1(mesh, order=1, dirichlet=dirichlet)
+        form = ngs.BilinearForm(p1)
+        form += integrand(*p1.TnT())
+        amg = ngs.Preconditioner(form, "h1amg")
+        form.Assemble()
     return amg.mat, (p1, form, amg)
 
