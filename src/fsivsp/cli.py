@@ -1,4 +1,4 @@
-"""The command line: ``fsivsp paper`` (Section 5.3, Tables 1–8)."""
+"""The command line: `fsivsp paper`, `study`, `run` and `matrix`, a handler each (their argument types in `arguments`)."""
 from __future__ import annotations
 
 import multiprocessing
