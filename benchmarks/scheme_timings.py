@@ -19,7 +19,7 @@ import time
 import ngsolve as ngs
 
 from fsivsp import forms
-from fsivsp.cli import levels_arg
+from fsivsp.arguments import levels_arg
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp.cli import levels_arg
+from fsivsp.arguments import levels_arg
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json

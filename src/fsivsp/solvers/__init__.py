@@ -19,8 +19,8 @@ from typing import Protocol
 
 import ngsolve as ngs
 
-from .direct import (METHODS, DirectSolver, SolverError, available_methods, compact,
-                     default_method, factorise, free_mask, is_symmetric, to_ngsolve, to_scipy_csr)
+from .direct import METHODS, DirectSolver, available_methods, default_method, factorise
+from .sparse import SolverError, compact, free_mask, is_symmetric, to_ngsolve, to_scipy_csr
 from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_solver, unsupported
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 

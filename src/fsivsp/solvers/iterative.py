@@ -25,7 +25,7 @@ from ngsolve.krylovspace import MinResSolver
 from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
-from .direct import SolverError
+from .sparse import SolverError
 from .multigrid import SMOOTHING, Multigrid, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, \
     vertex_gather, vertex_levels
 from .schur import LeastSquaresCommutator, pressure_schur

@@ -117,7 +117,7 @@ class GaussSeidel:
     3), so the backward sweep is a forward one on a copy of the free block in reversed numbering."""
 
     def __init__(self, matrix: ngs.BaseMatrix, free: np.ndarray):
-        from .direct import to_ngsolve, to_scipy_csr
+        from .sparse import to_ngsolve, to_scipy_csr
 
         self._forward = matrix.CreateSmoother(bits(free))
         self._reversed = np.flatnonzero(free)[::-1].copy()

@@ -30,7 +30,7 @@ import ngsolve as ngs
 from .. import forms, parallel
 from ..materials import Materials
 from ..spaces import Spaces
-from .direct import SolverError, to_scipy_csr
+from .sparse import SolverError, to_scipy_csr
 from .iterative import NotConverged
 from .petsc_layout import layout
 

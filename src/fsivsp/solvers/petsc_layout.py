@@ -16,7 +16,7 @@ import ngsolve as ngs
 
 from .. import parallel
 from ..spaces import Spaces
-from .direct import free_mask
+from .sparse import free_mask
 
 
 @dataclasses.dataclass(frozen=True)

@@ -33,7 +33,7 @@ import scipy.sparse as sp
 from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
-from .direct import to_ngsolve, to_scipy_csr
+from .sparse import to_ngsolve, to_scipy_csr
 from .multigrid import Multigrid, coarse_inverse, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, vertex_gather, \
     vertex_levels
 
