@@ -44,7 +44,7 @@ def auto_solver(unknowns: int, dim: int, distributed: bool = False) -> str:
     else ``"petsc"`` where petsc4py imports, else ``"iterative"``. PETSc, not the NGSolve-native solver: its
     iterations stay flat where the other's break down (the 3D tube of benchmarks/tube.py: 23–32 against 55 up
     to 430 568 unknowns and 452 at 1.4 million), and it runs on every rank; the NGSolve-native solver is faster
-    per step on the 3D fluid ball (535 830 unknowns: 5.5 against 8.2 s; docs/solvers.md, "PETSc")."""
+    per step on the 3D fluid ball (535 830 unknowns: 4.3 against 4.9 s; docs/solvers.md, "PETSc")."""
     from .petsc import available
 
     if not distributed and unknowns < AUTO_ITERATIVE_DOFS[dim]:
