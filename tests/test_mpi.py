@@ -214,8 +214,8 @@ sys.exit(main(sys.argv[1:]))
 @needs_mpi
 def test_sigterm_on_two_ranks_then_resume(tmp_path):
     """SIGTERM on both ranks during step 3: they finish the step together, one line, a checkpoint at step 3, a
-    summary with "terminated", exit 143; --resume under mpirun ends as the uninterrupted run (PETSc, the default
-    under mpirun, rounds alike from run to run: to the last bit here, asserted to 1e-13)."""
+    summary with "terminated", exit 143; --resume under mpirun ends bit for bit as the uninterrupted run (PETSc, the
+    default under mpirun, rounds alike from run to run on the same ranks)."""
     case = tmp_path / "case.toml"
     case.write_text(TUBE.format(family="mini"))
     script = tmp_path / "signalled.py"
@@ -235,8 +235,7 @@ def test_sigterm_on_two_ranks_then_resume(tmp_path):
         assert done.returncode == 0, done.stderr
     whole, resumed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "cut"))
     assert resumed["resumed_from"] == 3 and resumed["step"] == whole["step"] == 5
-    for name, value in whole["l2_norms"].items():
-        assert resumed["l2_norms"][name] == pytest.approx(value, rel=1e-13), name
+    assert resumed["l2_norms"] == whole["l2_norms"] and resumed["energy"] == whole["energy"]
 
 
 @needs_mpi

@@ -125,8 +125,8 @@ def unsupported(solver: str | None, initial_velocity: str) -> str | None:
 
 def distributed_solver(matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, name: str,
                        tol: float = TOLERANCE, maxiter: int = MAX_ITERATIONS) -> DistributedSolver:
-    """The solver of a distributed step matrix; ``name`` must be one of `DISTRIBUTED_SOLVERS`."""
-    if name not in DISTRIBUTED_SOLVERS:
-        raise ValueError(f"solver: {name!r} does not run distributed (mpirun); expected one of "
-                         f"{', '.join(DISTRIBUTED_SOLVERS)}")
+    """NGSolve's own solver of a distributed step matrix (``"auto"`` or ``"iterative"``; `solvers.step_solver`
+    takes PETSc's for the other names of `DISTRIBUTED_SOLVERS`)."""
+    if name not in ("auto", "iterative"):
+        raise ValueError(f"solver: {name!r} is not NGSolve's distributed solver; expected 'auto' or 'iterative'")
     return DistributedSolver(matrix, spaces, materials, dt, tol, maxiter)

@@ -124,8 +124,9 @@ def rigid_motions(points: np.ndarray) -> np.ndarray:
 
 class SchurPreconditioner:
     """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘) (see the module's docstring): ``L`` a
-    pressure Laplacian applied by ``cycles`` AMG cycles (an inner PC under the prefix ``prefix``), ``R`` a sparse
-    matrix (None: the identity, one cycle of L⁻¹ and no second), ``weight`` a diagonal (None: none)."""
+    pressure Laplacian applied by an inner PC under the prefix ``prefix`` (BoomerAMG, its cycles set by
+    ``schur_laplacian_pc_hypre_boomeramg_max_iter``), ``R`` a sparse matrix (None: one application of L⁻¹ and no
+    second), ``weight`` a diagonal (None: none)."""
 
     def __init__(self, PETSc, laplacian, middle, weight, prefix: str):
         self.amg = PETSc.PC().create(comm=laplacian.getComm())
@@ -303,7 +304,7 @@ class PETScSolver:
         higher dofs of a linear field vanish) about the centroid of the vertices, orthonormalised."""
         L, mesh, V = self.layout, spaces.mesh, spaces.velocity
         d, scalar = mesh.dim, V.ndof // mesh.dim
-        component, node = np.divmod(L.local[:L.nvel_local][L.master[:L.nvel_local]], scalar)
+        component, node = np.divmod(L.velocity_masters, scalar)
         vertex = node < mesh.nv
         points = np.array([v.point for v in mesh.vertices]).reshape(-1, d)[node[vertex]]
         sums = parallel.total(np.append(points[component[vertex] == 0].sum(axis=0), np.sum(component[vertex] == 0)))
@@ -360,7 +361,7 @@ class PETScSolver:
         middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
         L, structure = self.layout, self.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
         scalar = spaces.velocity.ndof // spaces.mesh.dim
-        higher = L.local[:L.nvel_local][L.master[:L.nvel_local]] % scalar >= spaces.mesh.nv
+        higher = L.velocity_masters % scalar >= spaces.mesh.nv
         if not parallel.total(np.array([higher.sum()]))[0]:
             return
         y_h = y.copy()

@@ -38,6 +38,11 @@ class Layout:
     def velocity_rows(self) -> tuple[int, int]:
         return self.rows[0], self.rows[0] + self.nvel_rows
 
+    @property
+    def velocity_masters(self) -> np.ndarray:
+        """The local velocity dofs this rank is the master of, in the order of ``field``."""
+        return self.local[:self.nvel_local][self.master[:self.nvel_local]]
+
 
 def free_order(spaces: Spaces, free: np.ndarray, matrix) -> tuple[np.ndarray, int, int]:
     """The free dofs of X_h's (local) vector in PETSc's order, how many are velocity dofs, and the velocity's
