@@ -69,9 +69,11 @@ class Field:
         """The whole field as a CoefficientFunction, time from ``t`` (Parameter or float)."""
         return to_coefficient(self.expr, t).Compile()
 
-    def is_zero(self, box: tuple = ((0.0, 1.0),) * 3, times: tuple = (0.0, 1.0)) -> bool:
-        """Whether every component vanishes on ``box`` × ``times`` (`expression_is_zero`)."""
-        return all(expression_is_zero(sympy.sympify(c), tuple(map(tuple, box)), tuple(times))
+    def is_zero(self, box: tuple, times: tuple = (0.0, 1.0)) -> bool:
+        """Whether every component vanishes on ``box`` (the domain's x, y[, z] ranges) × ``times``
+        (`expression_is_zero`)."""
+        box = tuple(map(tuple, box)) + ((0.0, 1.0),) * (3 - len(box))
+        return all(expression_is_zero(sympy.sympify(c), box, tuple(times))
                    for c in self.components())
 
     def separated(self) -> list[tuple[Callable[[float], float], ngs.CoefficientFunction]] | None:

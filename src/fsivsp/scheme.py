@@ -24,7 +24,7 @@ from ngsolve import InnerProduct, dx, ds
 
 from . import forms
 from .fields import Field, TimeVector
-from .geometry import FLUID, INTERFACE, SOLID, interface_normal
+from .geometry import FLUID, INTERFACE, SOLID, extent, interface_normal
 from .manufactured import grad
 from .materials import Materials
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, factorise, step_solver
@@ -193,7 +193,7 @@ class Scheme:
             loads.append(TimeVector(d.force_solid, self._linear_form(dot, dx(SOLID, bonus_intorder=order))))
         for name, traction in d.boundary_traction.items():
             loads.append(TimeVector(traction, self._linear_form(dot, ds(name, bonus_intorder=order))))
-        if d.interface_load is not None and not d.interface_load.is_zero():
+        if d.interface_load is not None and not d.interface_load.is_zero(tuple(zip(*extent(mesh)))):
             n = interface_normal(mesh)
             loads.append(TimeVector(d.interface_load,
                                     self._linear_form(lambda J, w: InnerProduct(J * n, w),

@@ -31,13 +31,13 @@ from .mesh_files import GMSH_CELLS, MID_EDGES, load_mesh
 from .params import CAD_SUFFIXES, MESH_SUFFIXES
 from .refine import netgen_mesh, refined, without_geometry
 from .regions import (FLUID, FLUID_WALL, INFLOW, INTERFACE, OUTFLOW, SOLID, SOLID_ENDS, SOLID_WALL, GeometryError,
-                      check_distributable, check_regions, interface_normal, locked_fluid_cells, region_counts)
+                      check_distributable, check_regions, extent, interface_normal, locked_fluid_cells, region_counts)
 from .registry import KINDS, build_geometry
 from .shapes import (CHANNEL_HEIGHT, CHANNEL_WIDTH, DEFAULT_MAXH, DISK_CENTRE, DISK_RADIUS, elastic_tube,
                      fluid_in_solid, fluid_over_solid, paper_channel, solid_in_fluid)
 
 __all__ = [
-    "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS", "GeometryError",
+    "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS", "GeometryError",
     "check_regions", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
     "netgen_mesh", "without_geometry", "refined",
     "CHANNEL_WIDTH", "CHANNEL_HEIGHT", "DISK_CENTRE", "DISK_RADIUS", "DEFAULT_MAXH",

@@ -11,6 +11,16 @@ INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
 INFLOW, OUTFLOW, SOLID_ENDS = "inflow", "outflow", "solid_ends"  # boundary parts of `elastic_tube`
 
 
+def extent(mesh: ngs.Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """The lowest and highest vertex coordinates of the mesh (global under MPI: rank 0 holds no vertices)."""
+    from .. import parallel
+
+    points = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
+    low = np.min(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf)), axis=0)
+    high = np.max(parallel.gather(points.max(axis=0) if len(points) else np.full(mesh.dim, -np.inf)), axis=0)
+    return low, high
+
+
 class GeometryError(ValueError):
     """A mesh without the regions the formulation needs."""
 

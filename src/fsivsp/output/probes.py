@@ -9,14 +9,12 @@ import ngsolve as ngs
 
 from .. import atomic, parallel
 from ..case import CaseError
-from ..geometry import FLUID
+from ..geometry import FLUID, extent
 
 
 def bounding_box(mesh: ngs.Mesh) -> str:
     """The (global, under MPI) bounding box of the mesh's vertices, e.g. ``[0, 2.5] × [0, 0.41]``."""
-    points = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
-    low = np.min(np.array(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf))), axis=0)
-    high = np.max(np.array(parallel.gather(points.max(axis=0) if len(points) else np.full(mesh.dim, -np.inf))), axis=0)
+    low, high = extent(mesh)
     size = max(b - a for a, b in zip(low, high))
     tidy = lambda x: 0.0 if abs(x) < 1e-12 * size else x  # noqa: E731 (round-off of a vertex at 0)
     return " × ".join(f"[{tidy(a):g}, {tidy(b):g}]" for a, b in zip(low, high))
