@@ -294,15 +294,21 @@ def test_factorise_retries_pardiso_with_refinement_in_one_line(monkeypatch, caps
         calls.append(1)
         return 1e-3 if len(calls) == 1 else real(*args, **kwargs)
 
+    factorisations = []
+    original = direct.DirectSolver._factorise
+    monkeypatch.setattr(direct.DirectSolver, "_factorise",
+                        lambda self, options: factorisations.append(self.method) or original(self, options))
     monkeypatch.setattr(direct, "_free_residual", forced)
     solver = factorise(a.mat, X.FreeDofs())
     lines = capsys.readouterr().err.strip().splitlines()
     how = f"pardiso with {direct.RETRY_REFINEMENT_STEPS} refinement steps"
     assert len(lines) == 1 and lines[0].startswith("fsivsp: direct solver: pardiso failed (residual 1.00e-03)")
     assert how in lines[0]
+    assert factorisations == ["pardiso"]                       # the retry refines the same factors
     stats = solver.statistics()
-    assert stats["fallback"]["to"] == how and stats["residual"] < 1e-12
-    assert stats["refinement"] == {"steps": direct.RETRY_REFINEMENT_STEPS, "residual_before": solver.residual_unrefined}
+    assert stats["fallback"]["to"] == how and stats["fallback"]["residual"] == 1e-3 and stats["residual"] < 1e-12
+    assert stats["refinement"]["steps"] == direct.RETRY_REFINEMENT_STEPS
+    assert stats["refinement"]["residual_before"] < 1e-8      # the factors' own residual, checked again
 
 
 @pytest.fixture(scope="module")

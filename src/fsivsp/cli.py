@@ -141,7 +141,8 @@ def distributed_check(command: str, solver: str | None, initial_velocity: str, s
 
 def paper_command(args) -> int:
     from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
-    from .report import convergence_plot, error_table, rate_table, write_atomic, write_json
+    from .atomic import write_text
+    from .report import convergence_plot, error_table, rate_table, write_json
     from .solvers import solver_names
     from .study import rates, study
 
@@ -194,7 +195,7 @@ def paper_command(args) -> int:
     lines += ["![convergence](convergence.png)", ""]
     out.mkdir(parents=True, exist_ok=True)
     convergence_plot(series, references, out / "convergence.png")
-    write_atomic(out / "report.md", "\n".join(lines))
+    write_text(out / "report.md", "\n".join(lines))
     all_records = [r for label in series for r in series[label]]
     write_json(args.json or out / "results.json", all_records)
     print("\n".join(lines))
@@ -293,7 +294,8 @@ def matrix_command(args) -> int:
 def matrix_table(args) -> int:
     """`matrix_command` under its threads: the entries, the table and its files."""
     from .progress import tqdm
-    from .report import write_atomic, write_json
+    from .atomic import write_text
+    from .report import write_json
     from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
 
     entries = [e for e in TABLE if args.slow or not e.slow]
@@ -316,14 +318,14 @@ def matrix_table(args) -> int:
     table = markdown(results) + "\n\nRates in Δt (last pair of time steps, level 0):\n\n" + time_markdown(time_results)
     print(table)
     if args.markdown:
-        write_atomic(args.markdown, table + "\n")
+        write_text(args.markdown, table + "\n")
     if args.readme:
         text = args.readme.read_text()
         begin, end = "<!-- matrix:begin -->", "<!-- matrix:end -->"
         if begin not in text or end not in text:
             raise UsageError(f"fsivsp matrix: --readme: {args.readme} has no {begin} ... {end} markers")
         head, rest = text.split(begin, 1)
-        write_atomic(args.readme, head + begin + "\n" + table + "\n" + end + rest.split(end, 1)[1])
+        write_text(args.readme, head + begin + "\n" + table + "\n" + end + rest.split(end, 1)[1])
     if args.json:
         write_json(args.json, records)
     return 0 if all(r["passed"] for r in records) else 1

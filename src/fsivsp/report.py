@@ -75,13 +75,9 @@ def _layout(head: list[str], rows: list[list[str]], markdown: bool) -> str:
     return "\n".join([fmt(head)] + [fmt(row) for row in rows])
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (`fsivsp.atomic`): never a half-written file."""
-    atomic.write_text(path, text)
-
-
 def write_json(path: str | Path, data) -> None:
-    write_atomic(path, json.dumps(data, indent=2) + "\n")
+    """``data`` as indented JSON, written atomically (`fsivsp.atomic`)."""
+    atomic.write_text(path, json.dumps(data, indent=2) + "\n")
 
 
 def convergence_plot(series: dict[str, list[dict]], references: dict[str, list[dict]], path: str | Path) -> None:

@@ -1,12 +1,12 @@
 """The plots of a run (energy, probes, lines) and its JSON summary, written atomically."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from .. import atomic
+from ..report import write_json
 from .probes import Probes
 
 
@@ -91,6 +91,5 @@ def line_plot(probes: Probes, path: str | Path) -> None:
     _save(fig, path)
 
 
-def write_summary(path: str | Path, data: dict) -> None:
-    """A JSON summary of a run (atomic, with the umask's modes)."""
-    atomic.write_text(path, json.dumps(data, indent=2) + "\n")
+#: A run's JSON summary: `report.write_json` (atomic, with the umask's modes).
+write_summary = write_json

@@ -334,7 +334,7 @@ class DirectSolver:
         self.matching = getattr(self.factors, "matching", None)
         self.inverse = RefinedInverse(matrix, self.factors, refinement) if refinement else self.factors
         if check:
-            self._check()
+            self.check()
 
     def _factorise(self, options: Mapping[str, Any] | None):
         """The method's inverse of the matrix on the free dofs."""
@@ -356,8 +356,15 @@ class DirectSolver:
         inverse = PARDISO_INVERSE if method == "pardiso" else method
         return matrix.Inverse(self.freedofs, inverse=inverse, flags=Flags(opts) if opts else None)
 
-    def _check(self) -> None:
-        """The residual check (`check`); with refinement the factors' own residual is kept too."""
+    def refine(self, steps: int) -> None:
+        """Apply ``steps`` of iterative refinement after every solve from now on (the same factors), and check
+        again (`check`)."""
+        self.refinement = steps
+        self.inverse = RefinedInverse(self.matrix, self.factors, steps)
+        self.check()
+
+    def check(self) -> None:
+        """The residual check (the ``check`` parameter); with refinement the factors' own residual is kept too."""
         mask = free_mask(self.freedofs, self.matrix.height)
         self.residual = _free_residual(self.matrix, self.inverse, mask, seed=20180101)
         if not self.residual < self.rtol:
@@ -408,26 +415,30 @@ class DirectSolver:
 
 def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None = None) -> DirectSolver:
     """A checked `DirectSolver`: the given ``method``, or else the available methods in order of
-    preference (pivoting ones first), taking the first whose residual check passes; PARDISO is retried with
-    `RETRY_REFINEMENT_STEPS` of iterative refinement first. A method other than the first is never taken
+    preference (pivoting ones first), taking the first whose residual check passes; PARDISO's factors are
+    refined with `RETRY_REFINEMENT_STEPS` before another method is tried (not factorised again). A method other than the first is never taken
     silently: one line on stderr names both methods and the first one's residual, and ``solver.fallback`` (in
     `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists every failure."""
     if method is not None:
         return DirectSolver(matrix, freedofs, method=method)
     failures: list[SolverError] = []
     candidates = [m for m in METHODS if m in PIVOTING_METHODS and m in available_methods()]
-    attempts = [(m, 0) for m in candidates]
-    if "pardiso" in candidates:
-        attempts.insert(1, ("pardiso", RETRY_REFINEMENT_STEPS))
-    for candidate, steps in attempts:
+    for candidate in candidates:
         try:
-            solver = DirectSolver(matrix, freedofs, method=candidate, refinement=steps)
+            solver = DirectSolver(matrix, freedofs, method=candidate, check=False)
+            try:
+                solver.check()
+            except SolverError as error:
+                if candidate != "pardiso":
+                    raise
+                failures.append(error)
+                solver.refine(RETRY_REFINEMENT_STEPS)  # PARDISO's own factors, refined
         except SolverError as error:
             failures.append(error)
             continue
         if failures:
             first = failures[0]
-            how = candidate + (f" with {steps} refinement steps" if steps else "")
+            how = candidate + (f" with {solver.refinement} refinement steps" if solver.refinement else "")
             solver.fallback = {"from": candidates[0], "to": how, "residual": first.residual, "reason": str(first)}
             print(f"fsivsp: direct solver: {candidates[0]} failed (residual {first.residual:.2e}), "
                   f"using {how} (residual {solver.residual:.2e})", file=sys.stderr)

@@ -162,7 +162,7 @@ class IterativeSolver:
         self._minres.atol = self.tol * scale
         self._minres.Solve(rhs, increment, initialize=False)
         self.iterations.append(self._minres.iterations)
-        self.residual = self._minres.residuals[-1] / scale if scale > 0 else 0.0
+        self.residual = self._minres.residuals[-1] / scale
         if self._minres.residuals[-1] > self._minres.atol:
             raise NotConverged(f"iterative: MinRes did not reach the tolerance {self.tol:g} in {self.maxiter} "
                                f"iterations (relative residual {self.residual:.2e})")

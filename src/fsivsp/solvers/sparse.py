@@ -123,7 +123,3 @@ def _symmetrise_lower(lower):
     lower = sp.tril(lower).tocsr()
     full = lower + sp.tril(lower, -1).T
     return full.tocsr()
-
-
-# ---------------------------------------------------------------------------
-# MKL PARDISO with matching, and refinement for any inverse
