@@ -235,15 +235,6 @@ def study_records(args, case) -> int:
     return 0
 
 
-def check_output_folder(out: Path) -> None:
-    """``--out``: a folder that is or can be made and written (UsageError naming it, before any work)."""
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"fsivsp run: --out {out}: expected a folder, found a file")
-    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise UsageError(f"fsivsp run: --out {out}: {existing} is not a writable folder")
-
-
 def run_command(args) -> int:
     """``fsivsp run``: exit 0, 2 (bad input, or a run the estimate says does not fit: `estimate.before_run`),
     3 (not converged), 4 (a file could not be written), 130/143 (SIGINT/SIGTERM: the current step finished and

@@ -209,11 +209,24 @@ def available_memory() -> int | None:
     return proc_bytes("/proc/meminfo", "MemAvailable")
 
 
+def nearest_existing(out: Path) -> Path:
+    """``out`` itself or its nearest parent that exists."""
+    return next(p for p in (out, *out.absolute().parents) if p.exists())
+
+
+def check_output_folder(out: Path) -> None:
+    """``--out``: a folder that is or can be made and written (`Refused` naming it, before any work)."""
+    if out.exists() and not out.is_dir():
+        raise Refused(f"fsivsp run: --out {out}: expected a folder, found a file")
+    existing = nearest_existing(out)
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise Refused(f"fsivsp run: --out {out}: {existing} is not a writable folder")
+
+
 def free_space(out: Path) -> int:
     """Bytes free to this user on the filesystem of ``out`` (or of its nearest existing parent), plus the files
     already in ``out`` (a run into it, or resumed, replaces them)."""
-    existing = next(p for p in (out, *out.absolute().parents) if p.exists())
-    stat = os.statvfs(existing)
+    stat = os.statvfs(nearest_existing(out))
     held = sum(p.stat().st_size for p in out.rglob("*") if p.is_file()) if out.is_dir() else 0
     return stat.f_bavail * stat.f_frsize + held
 

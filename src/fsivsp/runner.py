@@ -23,8 +23,7 @@ def run(case: str | Path | dict, out: str | Path | None = None, *, overrides: di
     (or `GeometryError`) with the one-line message of the command. Unless ``quiet``: the set-up stages on stderr
     (`stages`) and a progress bar. Before set-up the estimate (`estimate.before_run`): ``dry_run`` prints it and
     returns None; a run it says does not fit raises `estimate.Refused` unless ``force``."""
-    from .cli import check_output_folder
-    from .estimate import before_run
+    from .estimate import before_run, check_output_folder
 
     with reporting(not quiet):
         with stage("mesh"):
