@@ -135,17 +135,6 @@ def count_unknowns(case) -> int:
     return build_spaces(case.mesh, disc.family, disc.order, "|".join(velocity)).free_dofs()
 
 
-def solver_kind(name: str, unknowns: int, dim: int) -> str:
-    """direct, iterative or petsc: what ``name`` (a case's solver) runs on ``unknowns`` (`solvers.step_solver`)."""
-    from .solvers import auto_solver
-
-    if name == "auto":
-        return auto_solver(unknowns, dim, parallel.distributed())
-    if parallel.distributed():  # MUMPS through PETSc, or `solvers.distributed_solver`
-        return "petsc" if name in ("petsc", "direct") else "iterative"
-    return name if name in ("iterative", "petsc") else "direct"
-
-
 def power_law(table: dict, dim: int, solver: str, unknowns: int) -> float:
     """value₀ (N/N₀)^exponent of ``table[dim, solver]``."""
     reference, value, exponent = table[dim, solver]
@@ -187,8 +176,10 @@ def output_bytes(case, unknowns: int) -> int:
 
 def estimate(case) -> Estimate:
     """Every figure of ``case``'s run (collective under MPI)."""
+    from .solvers import solver_kind
+
     unknowns = count_unknowns(case)
-    solver = solver_kind(case.discretisation.solver, unknowns, case.dim)
+    solver = solver_kind(case.discretisation.solver, unknowns, case.dim, parallel.distributed())
     return Estimate(unknowns, solver, memory_bytes(case, unknowns, solver),
                     power_law(SECONDS_PER_STEP, case.dim, solver, unknowns), case.steps, output_bytes(case, unknowns))
 

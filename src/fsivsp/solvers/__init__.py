@@ -25,7 +25,7 @@ from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_sol
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
 
 __all__ = [
-    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "auto_solver", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
+    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "auto_solver", "solver_kind", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
     "DistributedSolver", "IterativeSolver",
     "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
     "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
@@ -82,15 +82,26 @@ def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str 
     if name not in solver_names():
         raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
     distributed = isinstance(matrix, ngs.la.ParallelMatrix)  # a distributed mesh (mpirun)
-    if name == "auto":
-        name = auto_solver(spaces.free_dofs(), spaces.mesh.dim, distributed)
-    if name == "petsc" or (distributed and name == "direct"):
+    if distributed and name not in DISTRIBUTED_SOLVERS:
+        raise ValueError(unsupported(name, "interpolation"))
+    kind = solver_kind(name, spaces.free_dofs(), spaces.mesh.dim, distributed)
+    if kind == "petsc":
         from .petsc import MUMPS, PETScSolver
 
         options = {**MUMPS, **(petsc_options or {})} if name == "direct" else petsc_options
         return PETScSolver(matrix, spaces, materials, dt, tol, maxiter, options)
-    if distributed:
-        return distributed_solver(matrix, spaces, materials, dt, name, tol, maxiter)
-    if name == "iterative":
+    if kind == "iterative":
+        if distributed:
+            return distributed_solver(matrix, spaces, materials, dt, "iterative", tol, maxiter)
         return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
-    return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name == "direct" else name)
+    return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name in ("auto", "direct") else name)
+
+
+def solver_kind(name: str, unknowns: int, dim: int, distributed: bool = False) -> str:
+    """What ``name`` runs on ``unknowns``: ``"petsc"`` (also MUMPS: ``"direct"`` under mpirun), ``"iterative"``
+    (NGSolve's MinRes; `distributed` under mpirun) or ``"direct"`` (a serial factorisation)."""
+    if name == "auto":
+        name = auto_solver(unknowns, dim, distributed)
+    if name == "petsc" or (distributed and name == "direct"):
+        return "petsc"
+    return "iterative" if name == "iterative" or distributed else "direct"
