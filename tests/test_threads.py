@@ -1,5 +1,6 @@
 """Threads (`fsivsp.threads`): bit-identical runs for a given count, round-off between counts, the option."""
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from fsivsp.cli import main
-from fsivsp.threads import check, default_threads
+from fsivsp.threads import LOCAL_SIZE_VARIABLES, ThreadsError, check, default_threads, per_rank
 
 _RUN = """
 import dataclasses, sys
@@ -124,3 +125,24 @@ def test_resume_under_two_threads_is_bit_identical(tmp_path, monkeypatch):
     whole, resumed = final(tmp_path / "whole"), final(tmp_path / "cut")
     assert resumed["resumed_from"] == 13 and resumed["step"] == whole["step"] == 20 and resumed["threads"] == 2
     assert resumed["l2_norms"] == whole["l2_norms"] and resumed["energy"] == whole["energy"]
+
+
+def test_default_is_the_cores_or_the_environment_shared_by_the_ranks(monkeypatch):
+    for name in ("FSIVSP_THREADS", *LOCAL_SIZE_VARIABLES):
+        monkeypatch.delenv(name, raising=False)
+    cores = len(os.sched_getaffinity(0))
+    assert default_threads() == cores
+    monkeypatch.setenv("FSIVSP_THREADS", "3")
+    assert default_threads() == 3 and per_rank(3) == 3
+    monkeypatch.setenv("OMPI_COMM_WORLD_LOCAL_SIZE", "2")
+    assert default_threads() == 1 and per_rank(5) == 2 and per_rank(1) == 1
+    monkeypatch.setenv("FSIVSP_THREADS", "0")
+    with pytest.raises(ThreadsError, match="FSIVSP_THREADS: expected a positive whole number"):
+        default_threads()
+
+
+def test_bad_environment_threads_is_one_line_exit_2(monkeypatch, capsys):
+    monkeypatch.setenv("FSIVSP_THREADS", "two")
+    assert main(["study", "examples/fluid_in_solid_3d.toml", "--levels", "0"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "FSIVSP_THREADS" in err

@@ -15,7 +15,7 @@ from .checkpoint import CheckpointError
 from .geometry import GeometryError
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
-from .threads import using
+from .threads import ThreadsError, using
 from .arguments import (Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, petsc_argument,
                         positive_float, positive_int, scheme_options, threads_option, tolerance_arg)
 
@@ -358,7 +358,7 @@ def _main(argv: list[str] | None) -> int:
     try:
         args = parser.parse_args(argv)
         return args.handler(args)
-    except (UsageError, CaseError, GeometryError, CheckpointError) as error:
+    except (UsageError, CaseError, GeometryError, CheckpointError, ThreadsError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     except NotConverged as error:

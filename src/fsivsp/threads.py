@@ -5,8 +5,8 @@
 
 A run is bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made
 on one thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
-(docs/solvers.md, "Threads"). Default: one thread (`DEFAULT`); `default_threads` is the count to ask for on a
-machine of one's own: the cores this process may use, divided among the MPI ranks of this node.
+(docs/solvers.md, "Threads"). Default (`default_threads`): ``FSIVSP_THREADS`` if set, else the cores this process
+may use; a count is the node's, divided among the MPI ranks on it (`per_rank`).
 """
 from __future__ import annotations
 
@@ -21,25 +21,34 @@ import ngsolve as ngs
 
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
-#: The threads of a run without ``threads``: one, although runs on more are reproducible now. On this shared 2-core
-#: machine two threads made small runs slower whenever other jobs had the cores (NGSolve's and MKL's workers wait
-#: for a core at every short operation): `examples/pressure_wave_2d.toml` 9.6 s on one thread, 10.3 s on two at
-#: load 1 and 18.5 s at load 5 (over the README test's 60 s with the suite beside it), docs/solvers.md.
-DEFAULT = 1
+#: The environment's thread count for runs that do not give one (several runs sharing a machine, a batch
+#: scheduler's allocation, the test suite's workers): the node's count, like ``--threads``.
+VARIABLE = "FSIVSP_THREADS"
+
+
+def per_rank(threads: int) -> int:
+    """A node's ``threads`` divided among the MPI ranks on this node, at least 1."""
+    local = next((int(os.environ[v]) for v in LOCAL_SIZE_VARIABLES if os.environ.get(v, "").isdigit()), 1)
+    return max(1, threads // max(local, 1))
 
 
 def default_threads() -> int:
-    """The cores this process may use divided among the ranks on this node, at least 1."""
-    cores = len(os.sched_getaffinity(0))
-    local = next((int(os.environ[v]) for v in LOCAL_SIZE_VARIABLES if os.environ.get(v, "").isdigit()), 1)
-    return max(1, cores // max(local, 1))
+    """The threads of a run that gives none: ``FSIVSP_THREADS`` if set, else the cores this process may use
+    (``len(os.sched_getaffinity(0))``), divided among the ranks on this node (`per_rank`)."""
+    if (value := os.environ.get(VARIABLE)) is not None:
+        return per_rank(check(value, VARIABLE))
+    return per_rank(len(os.sched_getaffinity(0)))
+
+
+class ThreadsError(ValueError):
+    """A thread count that is no positive whole number (``--threads``, ``threads =``, ``FSIVSP_THREADS``)."""
 
 
 def check(value, where: str) -> int:
-    """``value`` as a thread count (a whole number ≥ 1), else ValueError naming ``where``."""
+    """``value`` as a thread count (a whole number ≥ 1), else `ThreadsError` naming ``where``."""
     if isinstance(value, bool) or not (isinstance(value, int) or (isinstance(value, str) and value.strip().isdigit())) \
             or int(value) < 1:
-        raise ValueError(f"{where}: expected a positive whole number of threads, got {value!r}")
+        raise ThreadsError(f"{where}: expected a positive whole number of threads, got {value!r}")
     return int(value)
 
 
@@ -103,19 +112,37 @@ def sequential() -> Iterator[None]:
         _MANAGERS.append(_started())
 
 
+@contextlib.contextmanager
+def idle() -> Iterator[None]:
+    """Put the TaskManager's workers to sleep for a block the calling thread runs alone (PETSc's solve): running,
+    they wait for work on the other cores and take them from the code that has work (one thread's sort of 20 000
+    numbers 200 times, 2 threads, load 2: 38 ms without a TaskManager, 50 under it, 44 suspended)."""
+    if not _MANAGERS:
+        yield
+        return
+    from pyngcore import SuspendTaskManager
+    with SuspendTaskManager():
+        yield
+
+
 def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
-    """``ngs.Integrate(cf, mesh, **kwargs)`` outside the TaskManager (`sequential`): under it the element sums
-    are added in an order that varies from call to call (1 ulp: 2 values in 30 calls on the paper's level 2);
-    on one thread the same bits every time, and faster there (1.5 against 5.6 ms on that mesh)."""
-    with sequential():
+    """``ngs.Integrate(cf, mesh, **kwargs)``, the same bits every time: under the TaskManager its element sums are
+    added in an order that varies from call to call (1 ulp: 2 values in 30 calls on the paper's level 2), so
+    there the cells' integrals are computed in parallel (``element_wise``) and added by numpy in their order; on
+    one thread NGSolve's sum as before. On a distributed mesh the ranks' sums are added (``comm.Sum``)."""
+    if not _MANAGERS:
         return ngs.Integrate(cf, mesh, **kwargs)
+    import numpy as np
+    local = float(np.sum(ngs.Integrate(cf, mesh, element_wise=True, **kwargs).NumPy()))
+    return mesh.comm.Sum(local) if mesh.comm.size > 1 else local
 
 
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
-    """Run the block with ``threads`` threads (None: `DEFAULT`): NGSolve's TaskManager (not entered
-    for 1 thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
-    count = DEFAULT if threads is None else check(threads, "threads")
+    """Run the block with ``threads`` threads of this node (None: `default_threads`; under mpirun each rank takes
+    its share, `per_rank`): NGSolve's TaskManager (not entered for 1 thread: the sequential code) and MKL's.
+    Yields the count; restores the previous counts on leaving."""
+    count = default_threads() if threads is None else per_rank(check(threads, "threads"))
     before, mkl_before = current(), _set_mkl(count)
     ngs.SetNumThreads(count)
     if count > 1:

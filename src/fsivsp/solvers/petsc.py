@@ -30,6 +30,7 @@ import ngsolve as ngs
 from .. import forms, parallel
 from ..materials import Materials
 from ..spaces import Spaces
+from ..threads import idle
 from .sparse import SolverError, to_scipy_csr
 from .iterative import NotConverged
 from .petsc_layout import layout
@@ -399,7 +400,8 @@ class PETScSolver:
             self._x.set(0.0)
         else:
             self._load_vector(guess, self._x)
-        self.ksp.solve(self._b, self._x)
+        with idle():   # PETSc solves on this thread alone
+            self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
         norm = self._b.norm()
         self.residual = self.ksp.getResidualNorm() / norm if norm > 0 else 0.0
