@@ -26,7 +26,8 @@ from fsivsp.fields import Field
 from fsivsp.geometry import build_geometry
 from fsivsp.materials import Materials
 from fsivsp.report import write_json
-from fsivsp.scheme import Data, Scheme
+from fsivsp.data import Data
+from fsivsp.scheme import Scheme
 from fsivsp.spaces import build_spaces
 from fsivsp.timeschemes import time_scheme
 

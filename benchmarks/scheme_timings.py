@@ -62,9 +62,9 @@ def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
     parts = {"rhs": [], "solve": [], "stress": [], "norms": [], "step": []}
     for _ in range(steps):
         n, current = scheme.n + 1, scheme.time_scheme
-        a = timed(lambda: scheme._right_hand_side(current, n, scheme._rhs, scheme._boundary))
-        b = timed(lambda: scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, scheme._guess()))
-        c = timed(lambda: scheme._accept(scheme._raw, n, current, None))
+        a = timed(lambda: scheme.right_hand_side(current, n, scheme._rhs, scheme._boundary))
+        b = timed(lambda: scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, scheme.guess()))
+        c = timed(lambda: scheme.accept(scheme._raw, n, current, None))
         d = timed(lambda: errors(scheme))
         for key, value in zip(("rhs", "solve", "stress", "norms", "step"), (a, b, c, d, a + b + c + d)):
             parts[key].append(value)

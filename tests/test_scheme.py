@@ -7,13 +7,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from fsivsp import forms, scheme as scheme_module
+from fsivsp import forms, marching
 from fsivsp.fields import Field
 from fsivsp.expressions import parse, parse_vector
 from fsivsp.geometry import SOLID
 from fsivsp.materials import Materials
 from fsivsp.paper import paper_case
-from fsivsp.scheme import Scheme, Data
+from fsivsp.data import Data
+from fsivsp.scheme import Scheme
 from fsivsp.solvers import to_ngsolve, to_scipy_csr
 from fsivsp.spaces import build_spaces
 from fsivsp.study import discretise
@@ -78,7 +79,7 @@ def explicit_reference(scheme: Scheme, steps: int) -> list[tuple[float, float]]:
     results = []
     for n in range(1, steps + 1):
         rhs.data = scheme._lagged * state + dt**2 * (scheme._stiffness * state) - dt * (divergence.mat * stress.vec)
-        scheme._add_data(rhs, boundary, [(n * dt, dt)], n * dt)
+        scheme.loads.add_to(rhs, boundary, [(n * dt, dt)], n * dt)
         scheme.solver.solve_step(rhs, boundary, state, state)
         stress.vec.data += dt * (inverse * (rate * state))
         scheme.step()
@@ -110,7 +111,7 @@ def test_lean_operators_equal_the_explicit_stress_update(paper_meshes, case):
 @pytest.fixture
 def threaded(monkeypatch):
     """`march` hands work to its second thread however small the problem."""
-    monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
+    monkeypatch.setattr(marching, "MARCH_THREAD_MIN_DOFS", 0)
 
 
 def record_assembly(monkeypatch) -> list[str]:

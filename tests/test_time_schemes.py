@@ -6,14 +6,15 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-from fsivsp import forms, scheme as scheme_module
+from fsivsp import forms, marching
 from fsivsp.cli import main
 from fsivsp.fields import Field
 from fsivsp.expressions import parse_vector
 from fsivsp.geometry import build_geometry
 from fsivsp.materials import Materials
 from fsivsp.paper import paper_case
-from fsivsp.scheme import Data, Scheme
+from fsivsp.data import Data
+from fsivsp.scheme import Scheme
 from fsivsp.spaces import build_spaces
 from fsivsp.study import discretise
 from fsivsp.timeschemes import BDF2, Theta, time_scheme
@@ -89,7 +90,7 @@ def test_bdf2_g_norm_does_not_increase(layers):
 @pytest.mark.parametrize("name", ["theta", "bdf2"])
 def test_no_assembly_or_factorisation_after_the_start(layers, monkeypatch, name):
     """One matrix per run: after BDF2's start, steps apply precomputed operators only."""
-    monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
+    monkeypatch.setattr(marching, "MARCH_THREAD_MIN_DOFS", 0)
     scheme = released(layers, time_scheme(name))
     scheme.step()
     calls = record_assembly(monkeypatch)
@@ -102,7 +103,7 @@ def test_no_assembly_or_factorisation_after_the_start(layers, monkeypatch, name)
 @pytest.mark.parametrize("name", ["theta", "bdf2"])
 def test_march_equals_step(paper_meshes, monkeypatch, name):
     """`march` with its second thread (lagged right-hand side) ends where `step` does, to round-off."""
-    monkeypatch.setattr(scheme_module, "MARCH_THREAD_MIN_DOFS", 0)
+    monkeypatch.setattr(marching, "MARCH_THREAD_MIN_DOFS", 0)
     stepped, _ = discretise(paper_case(1e-2, time_scheme=time_scheme(name)), paper_meshes[1])
     marched, _ = discretise(paper_case(1e-2, time_scheme=time_scheme(name)), paper_meshes[1])
     for _ in range(6):

@@ -12,7 +12,8 @@ from .manufactured import ExactSolution, ManufacturedError
 from .materials import Materials
 from .paper import paper_case, reference_table
 from .runner import run
-from .scheme import Scheme, Data
+from .data import Data
+from .scheme import Scheme
 from .spaces import Spaces, build_spaces
 from . import threads
 from .study import Case, manufactured_data, run_level, study, time_study

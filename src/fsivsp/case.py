@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .materials import Materials
-from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
+from .data import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import MAX_ITERATIONS, TOLERANCE, solver_names
 from .timeschemes import BDF2, Theta, time_scheme
 from .spaces import FAMILIES

@@ -13,7 +13,7 @@ from . import __version__, parallel
 from .case import CaseError
 from .checkpoint import CheckpointError
 from .geometry import GeometryError
-from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
+from .data import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
 from .threads import ThreadsError, using
 from .arguments import (Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, petsc_argument,

@@ -176,7 +176,8 @@ def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Fiel
 
 def build_scheme(case: RunCase):
     from .manufactured import elastic_stress
-    from .scheme import Scheme, Data
+    from .data import Data
+    from .scheme import Scheme
     from .spaces import base_order, build_spaces
 
     velocity, traction = boundary_conditions(case)

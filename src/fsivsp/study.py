@@ -18,7 +18,8 @@ from .materials import Materials
 from .forms import elastic_stress
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_motions
 from .quadratic import curve
-from .scheme import INITIAL_STRESS, Scheme, Data
+from .data import INITIAL_STRESS, Data
+from .scheme import Scheme
 from .solvers import MAX_ITERATIONS, TOLERANCE
 from .spaces import Spaces, base_order, build_spaces
 from .timeschemes import BDF2, Theta
