@@ -37,6 +37,7 @@ def example(name: str, **changes):
     ("fluid_over_solid_2d", range(0, 2), {}),                 # Taylor–Hood k = 1
     ("fluid_over_solid_2d", range(0, 2), {"order": 2}),       # a P2 pressure: the plain commutator
     ("fluid_in_solid_2d", range(0, 2), {}),
+    ("fluid_in_solid_2d", range(0, 2), {"petsc_options": {"schur_approximation": "cahouet-chabard"}}),
     ("solid_in_fluid_2d", range(0, 2), {}),
     ("fluid_in_solid_3d", range(0, 2), {}),                   # MINI with quartic bubbles
     ("fluid_over_solid_3d", range(0, 1), {}),

@@ -27,13 +27,14 @@ from typing import Mapping
 import numpy as np
 import ngsolve as ngs
 
-from .. import forms, parallel
+from .. import parallel
 from ..materials import Materials
 from ..spaces import Spaces
 from ..threads import idle
 from .sparse import SolverError, to_scipy_csr
 from .iterative import NotConverged
 from .petsc_layout import layout
+from .petsc_schur import pressure_block
 
 PREFIX = "fsivsp_"
 
@@ -123,42 +124,6 @@ def rigid_motions(points: np.ndarray) -> np.ndarray:
     return np.column_stack([m.ravel() for m in modes])
 
 
-class SchurPreconditioner:
-    """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘) (see the module's docstring): ``L`` a
-    pressure Laplacian applied by an inner PC under the prefix ``prefix`` (BoomerAMG, its cycles set by
-    ``schur_laplacian_pc_hypre_boomeramg_max_iter``), ``R`` a sparse matrix (None: one application of L⁻¹ and no
-    second), ``weight`` a diagonal (None: none)."""
-
-    def __init__(self, PETSc, laplacian, middle, weight, prefix: str):
-        self.amg = PETSc.PC().create(comm=laplacian.getComm())
-        self.amg.setOptionsPrefix(prefix)
-        self.amg.setOperators(laplacian)
-        self.amg.setFromOptions()
-        self.amg.setUp()
-        self.middle, self.weight = middle, weight
-        self._u, self._v = laplacian.createVecs()
-
-    def apply(self, pc, x, y) -> None:
-        if self.middle is None:
-            self.amg.apply(x, y)
-        else:
-            self.amg.apply(x, self._u)
-            self.middle.mult(self._u, self._v)
-            self.amg.apply(self._v, y)
-        if self.weight is not None:
-            self._u.pointwiseMult(self.weight, x)
-            y.axpy(1.0, self._u)
-        y.scale(-1.0)
-
-
-def part(vector, field):
-    """A copy of ``vector``'s entries on the index set ``field``."""
-    borrowed = vector.getSubVector(field)
-    copy = borrowed.copy()
-    vector.restoreSubVector(field, borrowed)
-    return copy
-
-
 class PETScSolver:
     """Step 1 by PETSc's KSP with the fieldsplit preconditioner of the module's docstring, serial or over the
     MPI ranks of a distributed mesh (the rows in `petsc_layout`'s order, split evenly over the ranks).
@@ -207,7 +172,7 @@ class PETScSolver:
         self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
         if pc.getType() == "fieldsplit":
             if self.options.get("pc_fieldsplit_type") == "schur" and self.options["schur_approximation"] != "petsc":
-                self._pressure_preconditioner(spaces, materials, dt)
+                self._schur = pressure_block(self, spaces, materials, dt)
             self.ksp.setUp()
             for block in pc.getFieldSplitSubKSP():  # else PETSc sets up the AMG at the first solve
                 block.setUp()
@@ -276,7 +241,7 @@ class PETScSolver:
         return PETSc.Mat().createAIJ(size=csr.shape, csr=(csr.indptr.astype(PETSc.IntType),
                                                           csr.indices.astype(PETSc.IntType), csr.data), comm=comm)
 
-    def _load(self, values: np.ndarray, target, summands: bool) -> None:
+    def load_values(self, values: np.ndarray, target, summands: bool) -> None:
         """``values`` of X_h's local vector into the PETSc vector ``target`` (PETSc's order): every rank's added
         where the values are ``summands`` of a distributed vector, else the masters' inserted."""
         L, mode = self.layout, self.PETSc.InsertMode
@@ -290,9 +255,9 @@ class PETScSolver:
 
     def _load_vector(self, vector: ngs.BaseVector, target) -> None:
         summands = getattr(vector, "GetParallelStatus", lambda: None)() == ngs.la.PARALLEL_STATUS.DISTRIBUTED
-        self._load(vector.FV().NumPy(), target, summands)
+        self.load_values(vector.FV().NumPy(), target, summands)
 
-    def _field_vector(self, values: np.ndarray):
+    def field_vector(self, values: np.ndarray):
         """A vector on the velocity field (its sub-matrix's layout) from the velocity master dofs' ``values``."""
         L = self.layout
         vector = self.PETSc.Vec().createMPI((L.nvel_rows, L.nvel), bsize=L.blocksize, comm=self.comm)
@@ -314,83 +279,13 @@ class PETScSolver:
         values[vertex] = modes[np.arange(vertex.sum()), component[vertex]]
         vectors = []
         for column in values.T:
-            vector = self._field_vector(column)
+            vector = self.field_vector(column)
             for other in vectors:  # modified Gram–Schmidt
                 vector.axpy(-vector.dot(other), other)
             vector.normalize()
             vectors.append(vector)
-        self._keep = list(vectors)
+        self.keep = list(vectors)
         return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
-
-    def _pressure_preconditioner(self, spaces: Spaces, materials: Materials, dt: float) -> None:
-        """The pressure block as PETSc's Python PC: the least-squares commutator (``schur_approximation =
-        lsc``, the default) or Cahouet–Chabard (``cahouet-chabard``), see the module's docstring; built with
-        PETSc's sparse products from the blocks A (velocity) and C (pressure–velocity) of the step matrix."""
-        PETSc, (velocity, pressure) = self.PETSc, self.fields
-        a = self.A.createSubMatrix(velocity, velocity)
-        c = self.A.createSubMatrix(pressure, velocity)
-        if self.options["schur_approximation"] == "lsc":
-            diagonal = a.getDiagonal()
-            laplacian, y = self._laplacian(c, diagonal)
-            middle = a.ptap(y)
-            if spaces.family == "mini" or spaces.order == 1:
-                self._correct(middle, a, c, y, spaces)
-            weight = None
-        else:
-            mass, pmass = self._masses(spaces, materials)
-            laplacian, y = self._laplacian(c, part(mass, velocity))
-            weight, middle = part(pmass, pressure), None
-            weight.reciprocal()
-            weight.scale(2 * materials.nu / dt)
-        self._keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
-        context = SchurPreconditioner(PETSc, laplacian, middle, weight, PREFIX + "schur_laplacian_")
-        pc = self.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
-        pc.setType("python")
-        pc.setPythonContext(context)
-        self._schur = context
-
-    def _laplacian(self, c, diagonal):
-        """(C Y, Y) with Y = diag(``diagonal``)⁻¹ Cᵀ: the pressure Laplacian of the discrete divergence."""
-        y = c.transpose(self.PETSc.Mat())
-        inverse = diagonal.copy()
-        inverse.reciprocal()
-        y.diagonalScale(L=inverse)
-        return c.matMult(y), y
-
-    def _correct(self, middle, a, c, y, spaces: Spaces) -> None:
-        """The corrected commutator (`schur.LeastSquaresCommutator`): the higher dofs' term Y_hᵀ A Y_h of the
-        middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
-        L, structure = self.layout, self.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
-        scalar = spaces.velocity.ndof // spaces.mesh.dim
-        higher = L.velocity_masters % scalar >= spaces.mesh.nv
-        if not parallel.total(np.array([higher.sum()]))[0]:
-            return
-        y_h = y.copy()
-        y_h.diagonalScale(L=self._field_vector(higher.astype(float)))
-        f_h = c.matMult(y_h)
-        scale = f_h.getDiagonal()
-        values = scale.getArray()
-        values[:] = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), 0.0)
-        scaled = f_h.copy()
-        scaled.diagonalScale(L=scale)
-        middle.axpy(-1.0, a.ptap(y_h), structure=structure)
-        middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
-
-    def _masses(self, spaces: Spaces, materials: Materials):
-        """The diagonals of the velocity mass ρM and the pressure mass M_p as PETSc vectors (PETSc's order)."""
-        X = spaces.mixed
-        (_, p), (_, q) = X.TnT()
-        mass = forms.velocity_mass(spaces, materials)
-        pmass = ngs.BilinearForm(X)
-        pmass += forms.pressure_mass(p, q)
-        diagonals = []
-        for form in (mass, pmass):
-            form.Assemble()
-            matrix = form.mat.local_mat if self.distributed else form.mat
-            vector = self._x.duplicate()
-            self._load(to_scipy_csr(matrix).diagonal(), vector, self.distributed)
-            diagonals.append(vector)
-        return diagonals
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
                    guess: ngs.BaseVector | None = None) -> None:
@@ -418,7 +313,7 @@ class PETScSolver:
     def destroy(self) -> None:
         """Free the PETSc objects (`_LIVE`: at exit, before PETSc finalises)."""
         for obj in (self.ksp, self.A, self._b, self._x, self._local, self._scatter, self._near_nullspace,
-                    *self.fields, *self._keep):
+                    *self.fields, *self.keep):
             obj.destroy()
         if getattr(self, "_schur", None) is not None:
             self._schur.amg.destroy()

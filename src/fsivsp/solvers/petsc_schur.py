@@ -1,0 +1,122 @@
+"""The pressure block of `petsc.PETScSolver`'s fieldsplit: the Schur complement S = −C A⁻¹ Cᵀ of step 1's
+matrix by the corrected least-squares commutator (`schur.LeastSquaresCommutator`) or Cahouet–Chabard, as
+PETSc's Python PC, built with PETSc's sparse products from the step matrix's blocks."""
+from __future__ import annotations
+
+import numpy as np
+import ngsolve as ngs
+
+from .. import forms, parallel
+from ..materials import Materials
+from ..spaces import Spaces
+from .sparse import to_scipy_csr
+
+
+class SchurPreconditioner:
+    """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘) (see the module's docstring): ``L`` a
+    pressure Laplacian applied by an inner PC under the prefix ``prefix`` (BoomerAMG, its cycles set by
+    ``schur_laplacian_pc_hypre_boomeramg_max_iter``), ``R`` a sparse matrix (None: one application of L⁻¹ and no
+    second), ``weight`` a diagonal (None: none)."""
+
+    def __init__(self, PETSc, laplacian, middle, weight, prefix: str):
+        self.amg = PETSc.PC().create(comm=laplacian.getComm())
+        self.amg.setOptionsPrefix(prefix)
+        self.amg.setOperators(laplacian)
+        self.amg.setFromOptions()
+        self.amg.setUp()
+        self.middle, self.weight = middle, weight
+        self._u, self._v = laplacian.createVecs()
+
+    def apply(self, pc, x, y) -> None:
+        if self.middle is None:
+            self.amg.apply(x, y)
+        else:
+            self.amg.apply(x, self._u)
+            self.middle.mult(self._u, self._v)
+            self.amg.apply(self._v, y)
+        if self.weight is not None:
+            self._u.pointwiseMult(self.weight, x)
+            y.axpy(1.0, self._u)
+        y.scale(-1.0)
+
+
+def part(vector, field):
+    """A copy of ``vector``'s entries on the index set ``field``."""
+    borrowed = vector.getSubVector(field)
+    copy = borrowed.copy()
+    vector.restoreSubVector(field, borrowed)
+    return copy
+
+
+def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> SchurPreconditioner:
+    """The pressure block as PETSc's Python PC: the least-squares commutator (``schur_approximation =
+    lsc``, the default) or Cahouet–Chabard (``cahouet-chabard``), see the module's docstring; built with
+    PETSc's sparse products from the blocks A (velocity) and C (pressure–velocity) of the step matrix."""
+    PETSc, (velocity, pressure) = solver.PETSc, solver.fields
+    a = solver.A.createSubMatrix(velocity, velocity)
+    c = solver.A.createSubMatrix(pressure, velocity)
+    if solver.options["schur_approximation"] == "lsc":
+        diagonal = a.getDiagonal()
+        laplacian, y = _laplacian(PETSc, c, diagonal)
+        middle = a.ptap(y)
+        if spaces.family == "mini" or spaces.order == 1:
+            _correct(solver, middle, a, c, y, spaces)
+        weight = None
+    else:
+        mass, pmass = _masses(solver, spaces, materials)
+        laplacian, y = _laplacian(PETSc, c, part(mass, velocity))
+        weight, middle = part(pmass, pressure), None
+        weight.reciprocal()
+        weight.scale(2 * materials.nu / dt)
+    solver.keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
+    context = SchurPreconditioner(PETSc, laplacian, middle, weight, solver.ksp.getOptionsPrefix() + "schur_laplacian_")
+    pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
+    pc.setType("python")
+    pc.setPythonContext(context)
+    return context
+
+
+def _laplacian(PETSc, c, diagonal):
+    """(C Y, Y) with Y = diag(``diagonal``)⁻¹ Cᵀ: the pressure Laplacian of the discrete divergence."""
+    y = c.transpose(PETSc.Mat())
+    inverse = diagonal.copy()
+    inverse.reciprocal()
+    y.diagonalScale(L=inverse)
+    return c.matMult(y), y
+
+
+def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
+    """The corrected commutator (`schur.LeastSquaresCommutator`): the higher dofs' term Y_hᵀ A Y_h of the
+    middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
+    L, structure = solver.layout, solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+    scalar = spaces.velocity.ndof // spaces.mesh.dim
+    higher = L.velocity_masters % scalar >= spaces.mesh.nv
+    if not parallel.total(np.array([higher.sum()]))[0]:
+        return
+    y_h = y.copy()
+    y_h.diagonalScale(L=solver.field_vector(higher.astype(float)))
+    f_h = c.matMult(y_h)
+    scale = f_h.getDiagonal()
+    values = scale.getArray()
+    values[:] = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), 0.0)
+    scaled = f_h.copy()
+    scaled.diagonalScale(L=scale)
+    middle.axpy(-1.0, a.ptap(y_h), structure=structure)
+    middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
+
+
+def _masses(solver, spaces: Spaces, materials: Materials):
+    """The diagonals of the velocity mass ρM and the pressure mass M_p as PETSc vectors (PETSc's order)."""
+    X = spaces.mixed
+    (_, p), (_, q) = X.TnT()
+    mass = forms.velocity_mass(spaces, materials)
+    pmass = ngs.BilinearForm(X)
+    pmass += forms.pressure_mass(p, q)
+    diagonals = []
+    for form in (mass, pmass):
+        form.Assemble()
+        matrix = form.mat.local_mat if solver.distributed else form.mat
+        vector = solver.A.createVecRight()
+        solver.load_values(to_scipy_csr(matrix).diagonal(), vector, solver.distributed)
+        diagonals.append(vector)
+    return diagonals
