@@ -50,6 +50,7 @@ from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
 from ..threads import current as current_threads
+from .mumps import MumpsInverse
 from .sparse import SolverError, _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
 
 __all__ = ["METHODS", "DirectSolver", "available_methods", "default_method", "factorise"]
@@ -335,8 +336,6 @@ class DirectSolver:
         if method == "scipy":
             return ScipyLUInverse(matrix, self.freedofs, options)
         if method == DISTRIBUTED_METHOD:
-            from .mumps import MumpsInverse
-
             return MumpsInverse(matrix, self.freedofs)
         opts: dict[str, Any] = {}
         if method == "pardiso":

@@ -1,6 +1,6 @@
 """A distributed matrix (``ParallelMatrix``, under mpirun) factorised by MUMPS over all ranks, through PETSc: the
-direct solves of `direct.factorise` and `symmetric.factorised` on a distributed mesh (the initial projection
-(22)–(23), the Gram matrices of the error norms).
+direct solves of `direct.factorise` (the initial projection (22)–(23)) and `symmetric.factorised` on a distributed
+mesh.
 
 The free dofs are numbered globally by their masters (NGSolve's ``MasterDofs``), rank by rank, the numbers reach
 the other ranks that share a dof by a ``Cumulate``, and every rank's local matrix enters as a summand (the local
@@ -8,8 +8,6 @@ part of a MATIS, converted to MPIAIJ, as in `petsc`). MUMPS's LU pivots: symmetr
 SPD matrices alike.
 """
 from __future__ import annotations
-
-import time
 
 import numpy as np
 import ngsolve as ngs
@@ -41,16 +39,12 @@ def global_numbers(matrix: ngs.la.ParallelMatrix, free: np.ndarray) -> tuple[np.
 class MumpsInverse(ngs.BaseMatrix):
     """(A + ``shift`` diag(A))⁻¹ of a distributed A on ``freedofs`` (zero on the other dofs), factorised once by
     MUMPS; ``Mult`` takes a distributed or cumulated vector and returns a cumulated one. A failed factorisation
-    or solve raises `SolverError` on every rank."""
-
-    method = "mumps"
-    overlap = False  # its solves communicate: one MPI call at a time
+    or solve raises `SolverError` there (PETSc's reason, the same on every rank)."""
 
     def __init__(self, matrix: ngs.la.ParallelMatrix, freedofs: ngs.BitArray | None, shift: float = 0.0):
         super().__init__()
         from .petsc import _LIVE, _petsc
 
-        start = time.perf_counter()
         self.PETSc = PETSc = _petsc()
         self.matrix = matrix
         local = matrix.local_mat
@@ -74,7 +68,6 @@ class MumpsInverse(ngs.BaseMatrix):
         self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
                                                self._local, None)
         _LIVE.add(self)
-        self.factor_seconds = time.perf_counter() - start
 
     def _assembled(self, csr: sp.csr_matrix, rows: int, size: int):
         """The global matrix from this rank's summand ``csr`` (its free dofs, in their local order)."""

@@ -17,6 +17,9 @@ import ngsolve as ngs
 import scipy.sparse as sp
 from ngsolve.krylovspace import CGSolver
 
+from ..threads import current
+from .direct import ScipyLUInverse, available_methods
+from .mumps import MumpsInverse
 from .sparse import to_ngsolve, to_scipy_csr
 
 #: CG stops when the preconditioned residual is below this fraction of the load's: the error norms then equal the
@@ -33,12 +36,7 @@ Kernel = tuple[np.ndarray, slice | np.ndarray]
 
 def factorised(matrix: ngs.BaseMatrix, freedofs: ngs.BitArray, shift: float = 0.0) -> ngs.BaseMatrix:
     """The inverse of A + ``shift`` diag(A) (A SPD there) on ``freedofs``, by the module's factorisations."""
-    from ..threads import current
-    from .direct import ScipyLUInverse, available_methods
-
     if isinstance(matrix, ngs.la.ParallelMatrix):
-        from .mumps import MumpsInverse
-
         return MumpsInverse(matrix, freedofs, shift)
     if shift:
         csr = to_scipy_csr(matrix)
