@@ -45,12 +45,12 @@ vtk = false
 """
 
 
-def mpirun(*args: str, ranks: int = 2) -> subprocess.CompletedProcess:
-    """``mpirun -np ranks fsivsp args`` with this checkout's sources, as root if need be (CI), on any number of
-    cores; fails the test if it does not end within `TIMEOUT`."""
+def mpirun(*args: str, ranks: int = 2, program: tuple[str, ...] = ("-m", "fsivsp.cli")) -> subprocess.CompletedProcess:
+    """``mpirun -np ranks fsivsp args`` (``program``: Python's arguments before ``args``) with this checkout's
+    sources, as root if need be (CI), on any number of cores; fails the test if it does not end within `TIMEOUT`."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
                OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
-    return subprocess.run([MPIRUN, "-np", str(ranks), sys.executable, "-m", "fsivsp.cli", *args],
+    return subprocess.run([MPIRUN, "-np", str(ranks), sys.executable, *program, *args],
                           capture_output=True, text=True, env=env, timeout=TIMEOUT)
 
 
@@ -105,6 +105,71 @@ def test_run_equals_serial(tmp_path, text, family, solver, ranks):
         assert sum(len(c.data) for p in pieces for c in p.cells) == sum(len(c.data) for c in whole.cells)
         for name, values in whole.point_data.items():
             assert max(abs(p.point_data[name]).max() for p in pieces) == pytest.approx(abs(values).max(), rel=RELATIVE)
+
+
+#: Solves with an SPD and a singular (Neumann) Gram matrix by `solvers.symmetric` on the unit square (serial or
+#: distributed), printed by rank 0 as kernel-free integrals of the solutions.
+SYMMETRIC = """
+import json
+import numpy as np
+import ngsolve as ngs
+from netgen.geom2d import unit_square
+from fsivsp import parallel
+from fsivsp.solvers.multigrid import bits
+from fsivsp.solvers.symmetric import symmetric_solver
+
+mesh = parallel.distribute(parallel.on_root(lambda: ngs.Mesh(unit_square.GenerateMesh(maxh=0.1))))
+space = ngs.H1(mesh, order=2)
+u, w = space.TnT()
+constants = np.zeros((space.ndof, 1))
+constants[:mesh.nv] = 1.0  # the vertex dofs come first
+results = {}
+for name, mass in (("spd", 1.0), ("singular", 0.0)):
+    gram = ngs.BilinearForm(space, symmetric=True)
+    gram += (mass * u * w + ngs.grad(u) * ngs.grad(w)) * ngs.dx
+    load = ngs.LinearForm((ngs.x - 0.5) * w * ngs.dx).Assemble()
+    kernel = (constants / np.linalg.norm(constants), slice(None)) if mass == 0 else None
+    solve = symmetric_solver(gram.Assemble().mat, bits(np.ones(space.ndof, dtype=bool)), kernel)
+    gf = ngs.GridFunction(space)
+    solve(load.vec, gf.vec)
+    results[name] = [ngs.Integrate(ngs.grad(gf) * ngs.grad(gf), mesh), ngs.Integrate(gf.Deriv()[0], mesh)]
+if parallel.is_root():
+    print(json.dumps(results))
+"""
+
+
+@needs_mpi
+def test_symmetric_solves_equal_serial(tmp_path):
+    """`solvers.symmetric` (the error norms' Gram matrices, the multigrids' coarsest levels) on 2 ranks, MUMPS
+    (`solvers.mumps`): the solutions of the serial factorisation to 1e-12 (measured: 2.5e-15)."""
+    script = tmp_path / "symmetric.py"
+    script.write_text(SYMMETRIC)
+    serial = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=TIMEOUT,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT / "src")))
+    done = mpirun(str(script), program=())
+    assert serial.returncode == 0 and done.returncode == 0, serial.stderr + done.stderr
+    expected, got = json.loads(serial.stdout), json.loads(done.stdout)
+    for name, values in expected.items():
+        assert got[name] == pytest.approx(values, rel=1e-12), name
+
+
+@needs_mpi
+def test_initial_projection_equals_serial(tmp_path):
+    """v⁰_h by the projections (22)–(23), factorised by MUMPS over 2 ranks (`solvers.mumps`): the energies at every
+    step (step 0 is the projection's) and the final L² norms as serially, to 1e-10 (measured: 9e-12, the step
+    solver's tolerance)."""
+    case = tmp_path / "case.toml"
+    projected = 'family = "mini"\ninitial_velocity = "projection"'
+    case.write_text(TUBE.format(family="mini").replace('family = "mini"', projected)
+                    + '\n[data]\nvelocity0 = ["x*(2 - x)", "0.1*x"]\n')
+    assert main(["run", str(case), "--out", str(tmp_path / "serial"), "--quiet"]) == 0
+    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
+    assert serial["energy"]["energy"][0] > 0
+    assert distributed["energy"]["energy"] == pytest.approx(serial["energy"]["energy"], rel=1e-10)
+    for name, value in serial["l2_norms"].items():
+        assert distributed["l2_norms"][name] == pytest.approx(value, rel=1e-10), name
 
 
 @needs_mpi

@@ -148,7 +148,9 @@ class ErrorNorm:
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
-        if terms is None or space.ParallelDofs() is not None:  # MPI: quadrature, the projections are serial
+        # MPI: quadrature; the Gram solve runs distributed (`solvers.symmetric`), but the used dofs, the kernel
+        # (`rigid_motions` by each rank's connected parts) and `NormGroup`'s partial products here are local
+        if terms is None or space.ParallelDofs() is not None:
             self._time = ngs.Parameter(0.0)
             self._uh = ngs.GridFunction(space)
             self._integrand = self._remainder(self._offset(self._exact_cfs(exact, self._time)), self._uh)

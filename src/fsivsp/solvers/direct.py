@@ -33,6 +33,8 @@ Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
     ``scipy.sparse.linalg.splu`` (SuperLU) on the free-dof block, wrapped as an
     NGSolve :class:`~ngsolve.BaseMatrix`. Slower, but independent of NGSolve's
     solvers (a cross-check).
+``"mumps"`` (`DISTRIBUTED_METHOD`)
+    MUMPS's LU through PETSc over the MPI ranks (`mumps`), the one method of a distributed matrix.
 """
 from __future__ import annotations
 
@@ -48,6 +50,7 @@ from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
 from ..threads import current as current_threads
+from .mumps import MumpsInverse
 from .sparse import SolverError, _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
 
 __all__ = ["METHODS", "DirectSolver", "available_methods", "default_method", "factorise"]
@@ -55,6 +58,9 @@ __all__ = ["METHODS", "DirectSolver", "available_methods", "default_method", "fa
 #: All methods :class:`DirectSolver` knows (:func:`default_method` picks the first
 #: available of pardiso, umfpack, scipy, sparsecholesky).
 METHODS: tuple[str, ...] = ("pardiso", "umfpack", "sparsecholesky", "scipy")
+
+#: What `factorise` takes for a distributed matrix (mpirun), and nothing else does.
+DISTRIBUTED_METHOD = "mumps"
 
 #: Methods whose factorisation pivots, i.e. is safe on symmetric indefinite matrices.
 PIVOTING_METHODS: frozenset[str] = frozenset({"pardiso", "umfpack", "scipy"})
@@ -301,24 +307,12 @@ class DirectSolver:
     #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
     overlap = True
 
-    def __init__(
-        self,
-        matrix,
-        freedofs: ngs.BitArray | None = None,
-        method: str | None = None,
-        check: bool = True,
-        rtol: float = 1e-8,
-        options: Mapping[str, Any] | None = None,
-        refinement: int = 0,
-    ):
+    def __init__(self, matrix, freedofs: ngs.BitArray | None = None, method: str | None = None, check: bool = True,
+                 rtol: float = 1e-8, options: Mapping[str, Any] | None = None, refinement: int = 0):
         method = default_method() if method is None else method
-        if method not in METHODS:
+        if method not in (*METHODS, DISTRIBUTED_METHOD):
             raise ValueError(f"unknown solver method {method!r}; known: {', '.join(METHODS)}")
-        self.method = method
-        self.matrix = matrix
-        self.freedofs = freedofs
-        self.rtol = rtol
-        self.refinement = refinement
+        self.method, self.matrix, self.freedofs, self.rtol, self.refinement = method, matrix, freedofs, rtol, refinement
         self.residual = self.residual_unrefined = float("nan")
         self.fallback: dict | None = None   # set by `factorise` when a preferred method failed first
 
@@ -341,6 +335,8 @@ class DirectSolver:
         matrix, method = self.matrix, self.method
         if method == "scipy":
             return ScipyLUInverse(matrix, self.freedofs, options)
+        if method == DISTRIBUTED_METHOD:
+            return MumpsInverse(matrix, self.freedofs)
         opts: dict[str, Any] = {}
         if method == "pardiso":
             opts.update(PARDISO_FLAGS)
@@ -418,7 +414,10 @@ def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None =
     preference (pivoting ones first), taking the first whose residual check passes; PARDISO's factors are
     refined with `RETRY_REFINEMENT_STEPS` before another method is tried (not factorised again). A method other than the first is never taken
     silently: one line on stderr names both methods and the first one's residual, and ``solver.fallback`` (in
-    `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists every failure."""
+    `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists every failure. A
+    distributed matrix takes `DISTRIBUTED_METHOD`, whose solves check PETSc's outcome instead."""
+    if isinstance(matrix, ngs.la.ParallelMatrix):
+        return DirectSolver(matrix, freedofs, method=DISTRIBUTED_METHOD, check=False)
     if method is not None:
         return DirectSolver(matrix, freedofs, method=method)
     failures: list[SolverError] = []

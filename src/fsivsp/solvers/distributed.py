@@ -118,8 +118,10 @@ def unsupported(solver: str | None, initial_velocity: str) -> str | None:
     if solver not in (None, *DISTRIBUTED_SOLVERS):
         return f"solver: {solver!r} does not run under mpirun; expected one of {', '.join(DISTRIBUTED_SOLVERS)}"
     if initial_velocity == "projection":
-        return ("initial_velocity: the projection needs a direct solver, which does not run under mpirun; "
-                "use interpolation")
+        from .petsc import available
+
+        if reason := available():
+            return f"initial_velocity: the projection needs MUMPS under mpirun, and {reason}; use interpolation"
     return None
 
 

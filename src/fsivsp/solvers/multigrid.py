@@ -5,8 +5,8 @@ fsivsp refines meshes by red refinement (`geometry.refined`): the vertices of le
 on level l, and every new vertex has two parents (`Mesh.GetParentVertices`). That is all a Galerkin hierarchy
 needs: the prolongation P_l copies the old vertices and averages the parents for the new ones, the coarse
 operators are A_{l−1} = P_lᵀ A_l P_l (NGSolve's sparse products), the smoother is Gauss–Seidel forward before
-and backward after the coarse correction (a symmetric V-cycle), and the coarsest level is factorised. The
-d velocity components are kept coupled (the ε:ε and div div of the step).
+and backward after the coarse correction (a symmetric V-cycle), and the coarsest level is factorised
+(`symmetric.factorised`). The d velocity components are kept coupled (the ε:ε and div div of the step).
 
 On a higher-order space (MINI's bubbles, Taylor–Hood's P_{k+1}) `TwoLevel` smooths the whole space by
 Gauss–Seidel and corrects with the V-cycle of its vertex block: in NGSolve's hierarchical H1 basis the vertex
@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 import ngsolve as ngs
+
+from .symmetric import factorised
 
 #: Gauss–Seidel sweeps before and after the coarse correction (the velocity: V(2,2)). On the paper's
 #: experiment (levels 1–4, first step, tolerance 1e-10) MinRes needs 20, 23, 28, 34 iterations with V(2,2) and
@@ -72,21 +74,6 @@ def _prolongation(parents: np.ndarray, coarse: int, fine: int, dim: int, free_fi
     vals = np.tile(vals, dim)
     keep = free_fine[rows] & free_coarse[cols]
     return ngs.la.SparseMatrixd.CreateFromCOO(rows[keep], cols[keep], vals[keep], dim * fine, dim * coarse)
-
-
-
-def coarse_inverse(matrix: ngs.BaseMatrix, freedofs: ngs.BitArray) -> ngs.BaseMatrix:
-    """A factorisation of the SPD ``matrix`` on ``freedofs`` whose solves are bit-identical from one run to
-    the next: NGSolve's sparsecholesky on one thread; under more (`threads.using`), where its factors and
-    solves vary at round-off (and PARDISO's too), UMFPACK, else SuperLU (sequential)."""
-    from ..threads import current
-    from .direct import ScipyLUInverse, available_methods
-
-    if current() == 1:
-        return matrix.Inverse(freedofs, inverse="sparsecholesky")
-    if "umfpack" in available_methods():
-        return matrix.Inverse(freedofs, inverse="umfpack")
-    return ScipyLUInverse(matrix, freedofs)
 
 
 class _Operator(ngs.BaseMatrix):
@@ -175,7 +162,7 @@ class Multigrid(_Operator):
             self.frees.append(bits(free_coarse))
         self.smoothers = [GaussSeidel(a, np.fromiter(f, dtype=bool, count=a.height))
                           for a, f in zip(self.matrices[:-1], self.frees[:-1])]
-        self.coarse = coarse_inverse(self.matrices[-1], self.frees[-1])
+        self.coarse = factorised(self.matrices[-1], self.frees[-1])
         self.levels = len(self.matrices)
         #: per level: its right-hand side and solution (the level above fills them) and its own residual
         self._vectors = [(a.CreateColVector(), a.CreateColVector(), a.CreateColVector()) for a in self.matrices]

@@ -34,7 +34,8 @@ from .. import forms
 from ..materials import Materials
 from ..spaces import Spaces
 from .sparse import to_ngsolve, to_scipy_csr
-from .multigrid import Multigrid, coarse_inverse, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, vertex_gather, \
+from .symmetric import factorised
+from .multigrid import Multigrid, TwoLevel, algebraic_multigrid, bits, has_hierarchy, vertex_block, vertex_gather, \
     vertex_levels
 
 #: Gauss–Seidel sweeps of F's V-cycle and V-cycles per application: F appears twice in the approximation, and
@@ -123,7 +124,7 @@ class LeastSquaresCommutator:
         or a factorisation."""
         used = bits(self.used)
         if inverse == "factorised":
-            return coarse_inverse(self.f, used)
+            return factorised(self.f, used)
         mesh = spaces.mesh
         levels = vertex_levels(mesh)
         if spaces.pressure.ndof == mesh.nv:
