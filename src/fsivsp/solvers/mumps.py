@@ -14,6 +14,7 @@ import ngsolve as ngs
 import scipy.sparse as sp
 
 from .. import parallel
+from .petsc_layout import from_summands
 from .sparse import SolverError, free_mask, to_scipy_csr
 
 #: PETSc's options of the factorisation (set on the objects, not in the options database).
@@ -55,7 +56,7 @@ class MumpsInverse(ngs.BaseMatrix):
         self._master = (numbers >= rows[0]) & (numbers < rows[1])
         csr = to_scipy_csr(local)
         csr = (csr + shift * sp.diags(csr.diagonal()) if shift else csr)[self._dofs][:, self._dofs].tocsr()
-        self.A = self._assembled(csr, rows[1] - rows[0], size)
+        self.A = from_summands(PETSc, csr, self._numbers, rows[1] - rows[0], size)
         self.ksp = PETSc.KSP().create(comm=PETSc.COMM_WORLD)
         self.ksp.setOperators(self.A)
         self.ksp.setType(KSP_TYPE)
@@ -68,22 +69,6 @@ class MumpsInverse(ngs.BaseMatrix):
         self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
                                                self._local, None)
         _LIVE.add(self)
-
-    def _assembled(self, csr: sp.csr_matrix, rows: int, size: int):
-        """The global matrix from this rank's summand ``csr`` (its free dofs, in their local order)."""
-        PETSc = self.PETSc
-        mapping = PETSc.LGMap().create(self._numbers, comm=PETSc.COMM_WORLD)
-        assembled = PETSc.Mat().createIS(((rows, size), (rows, size)), lgmapr=mapping, lgmapc=mapping,
-                                         comm=PETSc.COMM_WORLD)
-        part = PETSc.Mat().createAIJ(size=csr.shape, csr=(csr.indptr.astype(PETSc.IntType),
-                                                          csr.indices.astype(PETSc.IntType), csr.data),
-                                     comm=PETSc.COMM_SELF)
-        assembled.setISLocalMat(part)
-        assembled.assemble()
-        assembled.convert("aij")  # in place
-        part.destroy()
-        mapping.destroy()
-        return assembled
 
     def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
         values, mode = x.FV().NumPy()[self._dofs], self.PETSc.InsertMode

@@ -33,7 +33,7 @@ from ..spaces import Spaces
 from ..threads import idle
 from .sparse import SolverError, to_scipy_csr
 from .iterative import NotConverged
-from .petsc_layout import layout
+from .petsc_layout import aij, from_summands, layout
 from .petsc_schur import pressure_block
 
 PREFIX = "fsivsp_"
@@ -219,27 +219,11 @@ class PETScSolver:
 
     def _matrix(self, local):
         """The step matrix on the free dofs as a PETSc AIJ matrix from ``local``, this rank's matrix on its free
-        dofs in PETSc's order (scipy CSR): serially itself; distributed a summand of the global matrix, the
-        local part of a MATIS, converted."""
-        PETSc, L = self.PETSc, self.layout
+        dofs in PETSc's order (scipy CSR): serially itself; distributed a summand of the global matrix."""
+        L = self.layout
         if not self.distributed:
-            return self._aij(local, PETSc.COMM_SELF)
-        mapping = PETSc.LGMap().create(self._numbers, comm=self.comm)
-        rows = L.rows[1] - L.rows[0]
-        assembled = PETSc.Mat().createIS(((rows, L.size), (rows, L.size)), lgmapr=mapping, lgmapc=mapping,
-                                         comm=self.comm)
-        part = self._aij(local, PETSc.COMM_SELF)
-        assembled.setISLocalMat(part)
-        assembled.assemble()
-        assembled.convert("aij")  # in place
-        part.destroy()
-        mapping.destroy()
-        return assembled
-
-    def _aij(self, csr, comm):
-        PETSc = self.PETSc
-        return PETSc.Mat().createAIJ(size=csr.shape, csr=(csr.indptr.astype(PETSc.IntType),
-                                                          csr.indices.astype(PETSc.IntType), csr.data), comm=comm)
+            return aij(self.PETSc, local, self.PETSc.COMM_SELF)
+        return from_summands(self.PETSc, local, self._numbers, L.rows[1] - L.rows[0], L.size)
 
     def load_values(self, values: np.ndarray, target, summands: bool) -> None:
         """``values`` of X_h's local vector into the PETSc vector ``target`` (PETSc's order): every rank's added

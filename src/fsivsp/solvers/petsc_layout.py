@@ -125,3 +125,24 @@ def _from_masters(X: ngs.FESpace, local: np.ndarray, numbers: np.ndarray, master
     vector.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
     vector.Cumulate()
     return np.rint(vector.FV().NumPy()[local]).astype(np.int64) - 1
+
+
+def aij(PETSc, csr, comm):
+    """The scipy CSR matrix ``csr`` as a PETSc AIJ matrix on ``comm``."""
+    return PETSc.Mat().createAIJ(size=csr.shape, csr=(csr.indptr.astype(PETSc.IntType),
+                                                      csr.indices.astype(PETSc.IntType), csr.data), comm=comm)
+
+
+def from_summands(PETSc, csr, numbers: np.ndarray, rows: int, size: int):
+    """The global MPIAIJ matrix (``size`` rows, ``rows`` of them on this rank) of which every rank holds the summand
+    ``csr`` on its dofs, numbered ``numbers`` globally: the local part of a MATIS, converted."""
+    mapping = PETSc.LGMap().create(numbers.astype(PETSc.IntType), comm=PETSc.COMM_WORLD)
+    assembled = PETSc.Mat().createIS(((rows, size), (rows, size)), lgmapr=mapping, lgmapc=mapping,
+                                     comm=PETSc.COMM_WORLD)
+    part = aij(PETSc, csr, PETSc.COMM_SELF)
+    assembled.setISLocalMat(part)
+    assembled.assemble()
+    assembled.convert("aij")  # in place
+    part.destroy()
+    mapping.destroy()
+    return assembled
