@@ -49,8 +49,8 @@ def stress_space_operators(spaces, mat, dt) -> dict[str, int]:
 
 
 def measure(example: str, family: str, level: int) -> dict:
-    case = dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{example}.toml")), family=family, order=1,
-                               solver="iterative")
+    case = dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{example}.toml")), family=family,
+                               order=1).with_solver(method="iterative")
     scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.project_refinement))
     spaces, free = scheme.spaces, scheme.spaces.free_dofs()
     lean = {"step": scheme._matrix.nze, "lagged mass": scheme._lagged_mass.nze, "stiffness": scheme._stiffness.nze}

@@ -31,7 +31,7 @@ def pieces(level: int, repeats: int) -> dict:
     dirichlet = dirichlet_boundaries(mesh)
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
     scheme = Scheme(build_spaces(mesh, case.family, case.order, dirichlet), case.materials, data, case.dt,
-                    solver="iterative")
+                    solver=case.with_solver(method="iterative").solver)
     matrix, preconditioner = scheme.solver.matrix, scheme.solver.preconditioner
     velocity = preconditioner.velocity
     x = matrix.CreateColVector()

@@ -34,8 +34,8 @@ def iterations(case, level: int, steps: int, solver: str) -> dict:
     spaces = build_spaces(mesh, case.family, case.order, dirichlet)
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
     start = time.perf_counter()
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance,
-                    max_iterations=MAX_ITERATIONS)
+    scheme = Scheme(spaces, case.materials, data, case.dt,
+                    solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS).solver)
     scheme.march(steps)
     statistics = scheme.solver.statistics()
     return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],

@@ -31,7 +31,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     from fsivsp.study import dirichlet_boundaries, manufactured_data
 
     import dataclasses
-    case = dataclasses.replace(to_study(load_study_case(EXAMPLE)), tolerance=tolerance)
+    case = to_study(load_study_case(EXAMPLE)).with_solver(tolerance=tolerance)
     if maxh is not None:
         from fsivsp.geometry import build_geometry
         coarse = build_geometry("fluid_in_solid", 3, maxh, curvature_safety=1.0)
@@ -46,7 +46,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     seconds["spaces"] = time.perf_counter() - start
     start = time.perf_counter()
     data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.with_solver(method=solver).solver)
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

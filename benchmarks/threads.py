@@ -33,8 +33,6 @@ def _timed(fn) -> float:
 
 def measure(where: str, level: int, solver: str, threads: int, steps: int) -> dict:
     """One configuration on ``threads`` threads, in this process."""
-    import dataclasses
-
     from fsivsp import forms
     from fsivsp.case import load_study_case, to_study
     from fsivsp.geometry import refined
@@ -43,8 +41,7 @@ def measure(where: str, level: int, solver: str, threads: int, steps: int) -> di
     from fsivsp.threads import using
 
     with using(threads):
-        case = paper_case(1e-2, solver=solver) if where == "paper" else \
-            dataclasses.replace(to_study(load_study_case(where)), solver=solver)
+        case = (paper_case(1e-2) if where == "paper" else to_study(load_study_case(where))).with_solver(method=solver)
         mesh = refined(case.coarse_mesh(), level, case.project_refinement)
         made = {}
         setup = _timed(lambda: made.update(scheme=discretise(case, mesh)[0]))

@@ -14,7 +14,7 @@ from fsivsp.case import load_study_case, to_study
 from fsivsp.cli import main
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
-from fsivsp.solvers import NotConverged, schur
+from fsivsp.solvers import NotConverged, SolverSpec, schur
 from fsivsp.study import discretise, run_level, study
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -22,8 +22,8 @@ EXAMPLES = Path(__file__).parent.parent / "examples"
 
 def same_errors(case, levels, rtol=1e-6) -> list[dict]:
     """Run ``case`` with both solvers; assert equal error norms; return the iterative records."""
-    direct = study(dataclasses.replace(case, solver="direct"), levels)
-    iterative = study(dataclasses.replace(case, solver="iterative"), levels)
+    direct = study(case.with_solver(method="direct"), levels)
+    iterative = study(case.with_solver(method="iterative"), levels)
     for a, b in zip(direct, iterative):
         assert a["solver"] != "iterative" and b["solver"] == "iterative"
         for name, error in a["errors"].items():
@@ -90,7 +90,7 @@ def test_iterations_bounded_over_levels():
     1.2 per level (measured 22.4, 24.8, 28.2: 1.11, 1.14; before the commutator and the two-level velocity
     cycle 60.8, 75.8, 81.4); with the velocity block by its diagonal they grow by more than 1.6 (140.6, 358.4:
     2.55)."""
-    case = paper_case(1e-2, solver="iterative")
+    case = paper_case(1e-2, solver=SolverSpec("iterative"))
     ours = [mean_iterations(case, level) for level in (1, 2, 3)]
     assert ours[1] / ours[0] < 1.2 and ours[2] / ours[1] < 1.2, ours
     jacobi = [mean_iterations(case, level, jacobi_velocity=True) for level in (1, 2)]
@@ -104,7 +104,8 @@ from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.study import discretise
 from fsivsp.threads import using
-case = paper_case(1e-2, solver="iterative")
+from fsivsp.solvers import SolverSpec
+case = paper_case(1e-2, solver=SolverSpec("iterative"))
 with using(1):  # bit-identical on one thread; on more, runs agree to round-off (docs/solvers.md, "Threads")
     scheme, _ = discretise(case, refined(case.coarse_mesh(), 2, case.project_refinement))
     scheme.march(3)
@@ -121,7 +122,7 @@ def test_iterative_runs_are_bit_identical():
 
 
 def test_not_converged_is_an_error():
-    case = dataclasses.replace(paper_case(1e-2, solver="iterative"), max_iterations=3)
+    case = paper_case(1e-2, solver=SolverSpec("iterative", max_iterations=3))
     with pytest.raises(NotConverged, match="did not reach the tolerance"):
         run_level(case, refined(case.coarse_mesh(), 0, False), 0)
 
@@ -133,11 +134,11 @@ def test_zero_data_is_a_zero_solution():
     from fsivsp.scheme import Scheme
     from fsivsp.study import manufactured_data
 
-    case = paper_case(1e-2, solver="iterative")
+    case = paper_case(1e-2, solver=SolverSpec("iterative"))
     spaces = discretise(case, refined(case.coarse_mesh(), 0, False))[0].spaces
     zero = ExactSolution.parse(["0", "0"], "0", ["0", "0"], 2)
     scheme = Scheme(spaces, case.materials, manufactured_data(zero, case.materials, spaces.dirichlet,
-                                                              case.initial_stress), case.dt, solver="iterative")
+                                                              case.initial_stress), case.dt, solver=case.solver)
     scheme.march(2)
     assert scheme.solver.iterations == [0, 0]
     assert np.abs(scheme.state.vec.FV().NumPy()).max() == 0.0
@@ -172,6 +173,6 @@ def test_refinement_hierarchy_is_found():
     counts = [refined(coarse, level, False).nv for level in range(3)]
     assert vertex_levels(refined(coarse, 2, False))[1] == counts
     assert vertex_levels(coarse)[1] == counts[:1]
-    iterative = dataclasses.replace(case, solver="iterative")
+    iterative = case.with_solver(method="iterative")
     assert discretise(iterative, refined(coarse, 1, False))[0].solver.preconditioner.multigrid
     assert not discretise(iterative, refined(coarse, 0, False))[0].solver.preconditioner.multigrid

@@ -6,17 +6,16 @@ field and what was expected, e.g. ``materials.mu: expected a positive number, go
 from __future__ import annotations
 
 import difflib
-import math
-import re
 import sys
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .inputs import CaseError, is_number, is_whole
 from .materials import Materials
 from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
-from .solvers import MAX_ITERATIONS, TOLERANCE, solver_names
+from .solvers import MAX_ITERATIONS, TOLERANCE, SolverSpec
 from .timeschemes import BDF2, Theta, time_scheme
 from .spaces import FAMILIES
 
@@ -30,10 +29,10 @@ SECTIONS = {
     "solver": {"petsc"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
-
-
-class CaseError(ValueError):
-    """A case file that cannot be run; one line naming the field."""
+#: The case file's names of the `SolverSpec` fields (``[discretisation]`` and ``[solver]``).
+SOLVER_FIELDS = {"method": "discretisation.solver", "tolerance": "discretisation.tolerance",
+                 "max_iterations": "discretisation.max_iterations", "threads": "discretisation.threads",
+                 "petsc": "solver.petsc"}
 
 
 def _suggest(word: str, options) -> str:
@@ -55,7 +54,7 @@ def number(table: dict, key: str, where: str, default=None, minimum: float | Non
             raise CaseError(f"{where}.{key}: missing; expected a number")
         return default
     value = table[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_number(value):
         raise CaseError(f"{where}.{key}: expected a number, got {value!r}")
     if minimum is not None and (value <= minimum if strict else value < minimum):
         what = "a positive number" if minimum == 0 and strict else f"a number {'>' if strict else '>='} {minimum:g}"
@@ -142,65 +141,33 @@ class Discretisation:
     order: int = 1
     initial_stress: str = "displacement"
     initial_velocity: str = "interpolation"
-    solver: str = "auto"
     curved: bool = True
-    tolerance: float = TOLERANCE
-    max_iterations: int = MAX_ITERATIONS
-    threads: int | None = None   # None: `threads.DEFAULT`
-    petsc: dict[str, str] = field(default_factory=dict)
 
 
-PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
-
-
-def read_petsc_options(table: dict, where: str = "solver.petsc") -> dict[str, str]:
-    """The ``[solver.petsc]`` table: PETSc option names (without the leading dash and the ``fsivsp_`` prefix,
-    e.g. ``ksp_monitor = true``, ``fieldsplit_velocity_pc_type = "gamg"``) to strings, numbers or booleans
-    (true: the option without a value; false: left out), as `solvers.petsc` passes them to PETSc."""
-    if not isinstance(table, dict):
-        raise CaseError(f"{where}: expected a table of PETSc options, got {table!r}")
-    options = {}
-    for key, value in table.items():
-        name = key.lstrip("-")
-        if not PETSC_OPTION.fullmatch(name):
-            raise CaseError(f"{where}.{key}: expected a PETSc option name (letters, digits, _), got {key!r}")
-        if isinstance(value, bool):
-            if value:
-                options[name] = ""
-        elif isinstance(value, (str, int, float)):
-            options[name] = str(value)
-        else:
-            raise CaseError(f"{where}.{key}: expected a string, a number or true/false, got {value!r}")
-    return options
-
-
-def read_discretisation(table: dict, solver: dict | None = None) -> Discretisation:
-    """``[discretisation]``, and the PETSc options of ``[solver]`` (``solver``)."""
+def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discretisation, SolverSpec]:
+    """``[discretisation]`` and ``[solver]`` (``solver``): the discretisation and the `SolverSpec` (`read_solver`)."""
     check_keys(table, SECTIONS["discretisation"], "discretisation")
-    solver = solver or {}
-    check_keys(solver, SECTIONS["solver"], "solver")
-    petsc = read_petsc_options(solver.get("petsc", {}))
+    spec = read_solver(table, solver or {})
     family = choice(table, "family", "discretisation", FAMILIES, "mini")
     low, high = ORDERS[family]
     order = table.get("order", low)
-    if isinstance(order, bool) or not isinstance(order, int) or not low <= order <= high:
+    if not is_whole(order, low, high):
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
     initial = choice(table, "initial_stress", "discretisation", INITIAL_STRESS, INITIAL_STRESS[0])
     velocity = choice(table, "initial_velocity", "discretisation", INITIAL_VELOCITY, INITIAL_VELOCITY[0])
-    method = choice(table, "solver", "discretisation", solver_names(), "auto")
-    tolerance = number(table, "tolerance", "discretisation", TOLERANCE, minimum=0)
-    if tolerance >= 1:
-        raise CaseError(f"discretisation.tolerance: expected a number in (0, 1), got {tolerance!r}")
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    limit = table.get("max_iterations", MAX_ITERATIONS)
-    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
-        raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
-    threads = table.get("threads")
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-        raise CaseError(f"discretisation.threads: expected a positive whole number, got {threads!r}")
-    return Discretisation(family, order, initial, velocity, method, curved, tolerance, limit, threads, petsc)
+    return Discretisation(family, order, initial, velocity, curved), spec
+
+
+def read_solver(table: dict, solver: dict) -> SolverSpec:
+    """The `SolverSpec` of ``[discretisation]``'s solver, tolerance, max_iterations and threads (``table``) and
+    ``[solver.petsc]`` (in ``solver``)."""
+    check_keys(solver, SECTIONS["solver"], "solver")
+    return SolverSpec(table.get("solver", "auto"), table.get("tolerance", TOLERANCE),
+                      table.get("max_iterations", MAX_ITERATIONS), table.get("threads"), solver.get("petsc", {}),
+                      where=SOLVER_FIELDS)
 
 
 def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
@@ -229,6 +196,7 @@ class CaseFile:
     dt: float
     time_scheme: Theta | BDF2
     discretisation: Discretisation
+    solver: SolverSpec
 
 
 @dataclass
@@ -276,7 +244,8 @@ def load_study_case(path: str | Path) -> StudyCase:
     geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
     materials = read_materials(section(doc, "materials"), dim)
     T, dt, scheme = read_time(section(doc, "time"))
-    disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
+    disc, spec = read_discretisation(section(doc, "discretisation", required=False),
+                                     section(doc, "solver", required=False))
     exact_table = section(doc, "exact")
     check_keys(exact_table, SECTIONS["exact"], "exact")
     for key in SECTIONS["exact"]:
@@ -286,7 +255,7 @@ def load_study_case(path: str | Path) -> StudyCase:
         exact = ExactSolution.parse(exact_table["velocity"], exact_table["pressure"], exact_table["displacement"], dim)
     except (ExpressionError, ManufacturedError) as error:
         raise CaseError(str(error)) from None
-    return StudyCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, exact)
+    return StudyCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, spec, exact)
 
 
 def to_study(case: StudyCase):
@@ -304,6 +273,5 @@ def to_study(case: StudyCase):
         materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
         family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
         initial_velocity=disc.initial_velocity,
-        project_refinement=disc.curved, solver=disc.solver, curved=disc.curved, tolerance=disc.tolerance,
-        max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme,
+        project_refinement=disc.curved, solver=case.solver, curved=disc.curved, time_scheme=case.time_scheme,
     )

@@ -10,7 +10,7 @@ import numpy as np
 from .geometry import CHANNEL_HEIGHT, CHANNEL_WIDTH, DISK_CENTRE, DISK_RADIUS, paper_channel
 from .manufactured import ExactSolution
 from .materials import Materials
-from .solvers import TOLERANCE
+from .solvers import SolverSpec
 from .study import Case
 from .timeschemes import BDF2, Theta
 
@@ -24,11 +24,10 @@ T_FINAL = 1.0
 
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
-               solver: str | None = None, initial_velocity: str = "interpolation",
-               tolerance: float = TOLERANCE, time_scheme: Theta | BDF2 = Theta(),
-               petsc_options: dict | None = None) -> Case:
+               solver: SolverSpec | None = None, initial_velocity: str = "interpolation",
+               time_scheme: Theta | BDF2 = Theta()) -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt`` (backward Euler, or
-    ``time_scheme``)."""
+    ``time_scheme``), solved by ``solver`` (None: the default `SolverSpec`)."""
     return Case(
         name=f"paper dt={dt:g}",
         coarse_mesh=paper_channel,
@@ -39,10 +38,8 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         initial_stress=initial_stress,
         initial_velocity=initial_velocity,
         project_refinement=project_refinement,
-        solver=solver,
-        tolerance=tolerance,
+        solver=SolverSpec() if solver is None else solver,
         time_scheme=time_scheme,
-        petsc_options=petsc_options or {},
     )
 
 

@@ -19,7 +19,7 @@ from .forms import elastic_stress
 from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_motions
 from .quadratic import curve
 from .scheme import INITIAL_STRESS, Scheme, Data
-from .solvers import MAX_ITERATIONS, TOLERANCE
+from .solvers import SolverSpec
 from .spaces import Spaces, base_order, build_spaces
 from .timeschemes import BDF2, Theta
 
@@ -39,17 +39,17 @@ class Case:
     initial_stress: str = "displacement"
     initial_velocity: str = "interpolation"
     project_refinement: bool = True
-    solver: str | None = None
+    solver: SolverSpec = field(default_factory=SolverSpec)
     curved: bool = False
-    tolerance: float = TOLERANCE
-    max_iterations: int = MAX_ITERATIONS
-    #: PETSc options of ``solver = "petsc"`` (`solvers.petsc`), without the ``fsivsp_`` prefix
-    petsc_options: dict = field(default_factory=dict)
     time_scheme: Theta | BDF2 = Theta()
 
     @property
     def steps(self) -> int:
         return max(1, round(self.T / self.dt))
+
+    def with_solver(self, **changes) -> Case:
+        """This case with the fields ``changes`` of its `SolverSpec` (e.g. ``method="iterative"``)."""
+        return replace(self, solver=replace(self.solver, **changes))
 
 
 def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
@@ -122,9 +122,7 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
                              case.initial_velocity)
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
-                    max_iterations=case.max_iterations, petsc_options=case.petsc_options,
-                    time_scheme=case.time_scheme)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
     return scheme, Errors(scheme, case.exact)
 
 

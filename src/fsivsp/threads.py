@@ -19,6 +19,8 @@ from typing import Iterator
 
 import ngsolve as ngs
 
+from .inputs import is_whole
+
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
 #: The threads of a run without ``threads``: one, although runs on more are reproducible now. On this shared 2-core
@@ -37,10 +39,10 @@ def default_threads() -> int:
 
 def check(value, where: str) -> int:
     """``value`` as a thread count (a whole number ≥ 1), else ValueError naming ``where``."""
-    if isinstance(value, bool) or not (isinstance(value, int) or (isinstance(value, str) and value.strip().isdigit())) \
-            or int(value) < 1:
+    count = int(value) if isinstance(value, str) and value.strip().isdigit() else value
+    if not is_whole(count):
         raise ValueError(f"{where}: expected a positive whole number of threads, got {value!r}")
-    return int(value)
+    return count
 
 
 def current() -> int:
