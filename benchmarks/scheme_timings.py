@@ -51,11 +51,11 @@ def baseline_step(scheme: Scheme) -> float:
 
 def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
     case = paper_case(dt, solver=SolverSpec(solver or "auto"))
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
     start = time.perf_counter()
     spaces = build_spaces(mesh, "mini", 1, dirichlet)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress)
     scheme = Scheme(spaces, case.materials, data, dt, solver=case.solver)
     setup = time.perf_counter() - start
     errors = Errors(scheme, case.exact)

@@ -82,13 +82,13 @@ def paper_builder(level: int, dt: float, solver: str | None):
     """(mesh description, builder(scheme name) -> Scheme) for the paper's experiment at ``level``."""
     spec = SolverSpec(solver or "auto")
     base = paper_case(dt, solver=spec)
-    mesh = refined(base.coarse_mesh(), level, base.project_refinement)
+    mesh = refined(base.coarse_mesh(), level, base.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
 
     def build(name: str) -> Scheme:
         case = paper_case(dt, solver=spec, time_scheme=time_scheme(name))
         spaces = build_spaces(mesh, "mini", 1, dirichlet)
-        data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
+        data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress)
         return Scheme(spaces, case.materials, data, dt, solver=spec, time_scheme=case.time_scheme)
 
     return {"mesh": f"paper level {level}", "dim": 2, "vertices": mesh.nv, "dt": dt}, build

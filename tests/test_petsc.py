@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from fsivsp.case import CaseError, load_study_case, to_study
+from fsivsp.case import CaseError, load_study_case
 from fsivsp.solvers import read_petsc_options
 from fsivsp.cli import main
 from fsivsp.paper import paper_case
@@ -31,7 +31,7 @@ def same_errors(case, levels, rtol=1e-6) -> list[dict]:
 
 
 def example(name: str, **changes):
-    return dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{name}.toml")), **changes)
+    return load_study_case(EXAMPLES / f"{name}.toml").with_discretisation(**changes)
 
 
 @pytest.mark.parametrize("name, levels, changes", [

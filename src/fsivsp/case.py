@@ -1,4 +1,5 @@
-"""Case files (TOML): reading and validating every field before any heavy work.
+"""Cases: the one `Case` type (a study case has an exact solution; `run.RunCase` adds a run's fields) and case
+files (TOML), every field read and validated before any heavy work.
 
 Every problem with a case file is a `CaseError` whose message is one line naming the
 field and what was expected, e.g. ``materials.mu: expected a positive number, got -1``.
@@ -8,9 +9,9 @@ from __future__ import annotations
 import difflib
 import sys
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from .inputs import CaseError, is_number, is_whole
 from .materials import Materials
@@ -18,6 +19,11 @@ from .scheme import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import MAX_ITERATIONS, TOLERANCE, SolverSpec
 from .timeschemes import BDF2, Theta, time_scheme
 from .spaces import FAMILIES
+
+if TYPE_CHECKING:
+    import ngsolve as ngs
+
+    from .manufactured import ExactSolution
 
 SECTIONS = {
     "geometry": None,  # free-form parameters, checked by the geometry builder
@@ -137,11 +143,16 @@ def kinematic_note(nu: float, rho_fluid: float) -> None:
 
 @dataclass
 class Discretisation:
+    """The element (``family``, ``order``), how σ⁰ and v⁰ are made, whether cells on curved boundaries are
+    ``curved`` and refinement moves new boundary nodes onto them (``project_refinement``). A case file's
+    ``[discretisation]`` (but its solver: `SolverSpec`) curves by default, and projects when it curves."""
+
     family: str = "mini"
     order: int = 1
     initial_stress: str = "displacement"
     initial_velocity: str = "interpolation"
-    curved: bool = True
+    curved: bool = False
+    project_refinement: bool = True
 
 
 def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discretisation, SolverSpec]:
@@ -158,7 +169,7 @@ def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discre
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    return Discretisation(family, order, initial, velocity, curved), spec
+    return Discretisation(family, order, initial, velocity, curved, project_refinement=curved), spec
 
 
 def read_solver(table: dict, solver: dict) -> SolverSpec:
@@ -185,25 +196,34 @@ def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
 
 
 @dataclass
-class CaseFile:
-    """The sections every case file has, validated."""
+class Case:
+    """A problem: its (coarse) mesh, materials, exact solution (a study case, ``fsivsp study``; None: a run case,
+    `run.RunCase`, whose mesh is its ``mesh``), time, `Discretisation` and `SolverSpec`; from a case file also its
+    ``path`` and validated ``[geometry]`` table."""
 
-    path: Path
-    geometry: dict[str, Any]
-    dim: int
+    name: str
+    coarse_mesh: Callable[[], ngs.Mesh] | None
     materials: Materials
+    exact: ExactSolution | None
     T: float
     dt: float
-    time_scheme: Theta | BDF2
-    discretisation: Discretisation
-    solver: SolverSpec
+    time_scheme: Theta | BDF2 = Theta()
+    discretisation: Discretisation = field(default_factory=Discretisation)
+    solver: SolverSpec = field(default_factory=SolverSpec)
+    path: Path | None = None
+    geometry: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def steps(self) -> int:
+        return max(1, round(self.T / self.dt))
 
-@dataclass
-class StudyCase(CaseFile):
-    """A manufactured-solution case file (``fsivsp study``)."""
+    def with_discretisation(self, **changes) -> Case:
+        """This case with the fields ``changes`` of its `Discretisation` (e.g. ``family="taylor_hood"``)."""
+        return replace(self, discretisation=replace(self.discretisation, **changes))
 
-    exact: Any = None
+    def with_solver(self, **changes) -> Case:
+        """This case with the fields ``changes`` of its `SolverSpec` (e.g. ``method="iterative"``)."""
+        return replace(self, solver=replace(self.solver, **changes))
 
 
 def read_geometry(table: dict, folder: Path = Path(".")) -> tuple[dict, int]:
@@ -233,45 +253,50 @@ def resolve_path(value: Any, folder: Path, where: str) -> Any:
     return value
 
 
-def load_study_case(path: str | Path) -> StudyCase:
-    """Read and validate a case file with an [exact] section (``fsivsp study``)."""
-    from .expressions import ExpressionError
-    from .manufactured import ExactSolution, ManufacturedError
-
-    doc = read_toml(path)
-    check_command(doc, Path(path), "study")
-    check_keys(doc, SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
-    materials = read_materials(section(doc, "materials"), dim)
+def read_case(doc: dict, path: Path, young_allowed: bool = False) -> tuple[dict[str, Any], int]:
+    """The `Case` fields of the sections every case file has ([geometry], [materials], [time], [discretisation],
+    [solver]; ``young_allowed``: `read_materials`) and d."""
+    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
+    materials = read_materials(section(doc, "materials"), dim, young_allowed)
     T, dt, scheme = read_time(section(doc, "time"))
     disc, spec = read_discretisation(section(doc, "discretisation", required=False),
                                      section(doc, "solver", required=False))
-    exact_table = section(doc, "exact")
-    check_keys(exact_table, SECTIONS["exact"], "exact")
+    return {"name": path.stem, "materials": materials, "T": T, "dt": dt, "time_scheme": scheme,
+            "discretisation": disc, "solver": spec, "path": path, "geometry": geometry}, dim
+
+
+def build_mesh(geometry: dict, dim: int, skip: tuple[str, ...] = ()) -> ngs.Mesh:
+    """The mesh of a validated ``[geometry]`` table (``skip``: keys that are not the geometry builder's)."""
+    from .geometry import build_geometry
+
+    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh", *skip)}
+    return build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+
+
+def read_exact(table: dict, dim: int) -> ExactSolution:
+    """``[exact]``: the manufactured solution's velocity, pressure and displacement."""
+    from .expressions import ExpressionError
+    from .manufactured import ExactSolution, ManufacturedError
+
+    check_keys(table, SECTIONS["exact"], "exact")
     for key in SECTIONS["exact"]:
-        if key not in exact_table:
+        if key not in table:
             raise CaseError(f"exact.{key}: missing; expected {'an expression' if key == 'pressure' else f'a list of {dim} expressions'}")
     try:
-        exact = ExactSolution.parse(exact_table["velocity"], exact_table["pressure"], exact_table["displacement"], dim)
+        return ExactSolution.parse(table["velocity"], table["pressure"], table["displacement"], dim)
     except (ExpressionError, ManufacturedError) as error:
         raise CaseError(str(error)) from None
-    return StudyCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, spec, exact)
 
 
-def to_study(case: StudyCase):
-    """The `study.Case` of a validated case file."""
-    from .geometry import build_geometry
-    from .study import Case
+def load_study_case(source: str | Path | dict, overrides: dict | None = None) -> Case:
+    """Read and validate a case file with an [exact] section (``fsivsp study``; a dict and ``overrides`` as
+    `run.load_run_case` takes them), its coarse mesh built (which validates the geometry before any solve)."""
+    from .overrides import case_document
 
-    params = {k: v for k, v in case.geometry.items() if k not in ("kind", "dim", "maxh")}
-    kind, maxh = case.geometry["kind"], case.geometry.get("maxh")
-    coarse = build_geometry(kind, case.dim, maxh, **params)  # validates the geometry before any solve
-    disc = case.discretisation
-    return Case(
-        name=case.path.stem,
-        coarse_mesh=lambda: coarse,
-        materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
-        family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
-        initial_velocity=disc.initial_velocity,
-        project_refinement=disc.curved, solver=case.solver, curved=disc.curved, time_scheme=case.time_scheme,
-    )
+    path, doc = case_document(source, overrides)
+    check_command(doc, path, "study")
+    check_keys(doc, SECTIONS, "")
+    fields, dim = read_case(doc, path)
+    exact = read_exact(section(doc, "exact"), dim)
+    coarse = build_mesh(fields["geometry"], dim)
+    return Case(coarse_mesh=lambda: coarse, exact=exact, **fields)

@@ -122,7 +122,7 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
     dt, level, options = job
     case = paper_case(dt, **options)
     with using(case.solver.threads):
-        record = run_level(case, refined(case.coarse_mesh(), level, case.project_refinement), level)
+        record = run_level(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement), level)
     record["dt"] = dt
     return record
 
@@ -203,11 +203,10 @@ def paper_command(args) -> int:
 
 
 def study_command(args) -> int:
-    from .case import load_study_case, to_study
+    from .case import load_study_case
 
-    case_file = load_study_case(args.case)
-    case = to_study(case_file)
-    distributed_check("study", case.solver.method, case.initial_velocity)
+    case = load_study_case(args.case)
+    distributed_check("study", case.solver.method, case.discretisation.initial_velocity)
     case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme),
                    solver=solver_spec(args, "fsivsp study", case.solver))
     with using(case.solver.threads):
@@ -219,7 +218,8 @@ def study_records(args, case) -> int:
     from .report import error_table, rate_table, time_table, write_json
     from .study import study, time_study
 
-    element = f"{case.family}{'' if case.family == 'mini' else case.order}"
+    disc = case.discretisation
+    element = f"{disc.family}{'' if disc.family == 'mini' else disc.order}"
     if args.dt is not None:
         records = time_study(case, args.level, args.dt, quiet=args.quiet)
         print(f"{case.name}: {element}, {case.time_scheme.name}, level {args.level}, T = {case.T:g}\n"

@@ -11,7 +11,7 @@ from .geometry import CHANNEL_HEIGHT, CHANNEL_WIDTH, DISK_CENTRE, DISK_RADIUS, p
 from .manufactured import ExactSolution
 from .materials import Materials
 from .solvers import SolverSpec
-from .study import Case
+from .case import Case, Discretisation
 from .timeschemes import BDF2, Theta
 
 #: Exact solution (75); the displacement u = ∫ v dt + u⁰ with u⁰ = v(0), so that σ_S n = σ_F n on the circle.
@@ -35,9 +35,8 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         exact=ExactSolution.parse(VELOCITY, PRESSURE, DISPLACEMENT, dim=2, field="paper"),
         T=T_FINAL,
         dt=dt,
-        initial_stress=initial_stress,
-        initial_velocity=initial_velocity,
-        project_refinement=project_refinement,
+        discretisation=Discretisation(initial_stress=initial_stress, initial_velocity=initial_velocity,
+                                      project_refinement=project_refinement),
         solver=SolverSpec() if solver is None else solver,
         time_scheme=time_scheme,
     )

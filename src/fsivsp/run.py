@@ -22,12 +22,11 @@ from typing import Any
 import numpy as np
 
 from . import parallel
-from .case import (CaseError, CaseFile, check_command, check_keys, read_discretisation, read_geometry, read_materials,
-                   read_time, section)
+from .case import CaseError, Case, build_mesh, check_command, check_keys, read_case, section
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
 from .inputs import is_number, is_whole
-from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
+from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
 from .overrides import case_document
 from .quadratic import curve
 from .stages import stage
@@ -44,20 +43,18 @@ class SolveDiverged(RuntimeError):
     """The discrete solution stopped being finite."""
 
 
-@dataclass
-class RunCase(CaseFile):
-    """A validated production case (``fsivsp run``)."""
+@dataclass(kw_only=True)
+class RunCase(Case):
+    """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
+    and refined at load), data, boundaries, output and checkpoints."""
 
+    dim: int
     data: dict[str, list]
     boundaries: dict[str, tuple[str, list]]
     output: dict[str, Any]
     checkpoint_every: int
     mesh: Any = field(default=None, repr=False)
     overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
-
-    @property
-    def steps(self) -> int:
-        return max(1, round(self.T / self.dt))
 
 
 def _whole(table: dict, key: str, where: str, default: int) -> int:
@@ -139,11 +136,7 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     path, doc = case_document(source, overrides)
     check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
-    materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
-    T, dt, scheme = read_time(section(doc, "time"))
-    disc, spec = read_discretisation(section(doc, "discretisation", required=False),
-                                     section(doc, "solver", required=False))
+    fields, dim = read_case(doc, path, young_allowed=True)
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
     data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
@@ -152,16 +145,15 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    refine = geometry.get("refine", 0)
+    refine = fields["geometry"].get("refine", 0)
     if not is_whole(refine, 0, MAX_REFINE):
         raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
-    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh", "refine")}
-    mesh = build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
     if refine:
-        mesh = refined(mesh, refine, disc.curved)
+        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
     check_boundaries(boundaries, mesh)
-    return RunCase(path, geometry, dim, materials, T, dt, scheme, disc, spec, data, boundaries, output, every, mesh,
-                   dict(overrides or {}))
+    return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
