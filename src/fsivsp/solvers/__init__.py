@@ -6,7 +6,7 @@
 - `petsc`: PETSc's FGMRES with a fieldsplit preconditioner (BoomerAMG on the velocity, the least-squares
   commutator on the pressure; `PETScSolver`), options from the case file's ``[solver.petsc]``;
 - `distributed`: the same MinRes with a preconditioner NGSolve runs over MPI ranks (`DistributedSolver`),
-  taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
+  taken for every name in `DISTRIBUTED_SOLVERS` when the run is distributed (``mpirun``: `SolverSpec.distributed`).
 
 `step_solver` takes a `SolverSpec` (`spec`) and runs the backend of `BACKENDS` that `solver_kind` names:
 ``"auto"`` (the default, `auto_solver`) takes the direct solver below `AUTO_ITERATIVE_DOFS` free unknowns (per

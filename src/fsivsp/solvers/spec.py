@@ -44,7 +44,7 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
 class SolverSpec:
     """The solver of a run: ``method`` (``"auto"``, ``"direct"``, ``"iterative"``, ``"petsc"`` or a direct
     method of `solvers.direct.METHODS`), the iterative solvers' ``tolerance`` and ``max_iterations``, ``threads``
-    (None: `threads.DEFAULT`), PETSc's options (``petsc``, `read_petsc_options`) and whether the run is
+    (None: the default of `threads.using`), PETSc's options (``petsc``, `read_petsc_options`) and whether the run is
     ``distributed`` over MPI ranks (default: this run's, `parallel.distributed`).
 
     Every field is checked when the spec is made (also by `dataclasses.replace`): a bad one is a `CaseError`
