@@ -28,6 +28,7 @@ from fsivsp.materials import Materials
 from fsivsp.report import write_json
 from fsivsp.data import Data
 from fsivsp.scheme import Scheme
+from fsivsp.solvers import SolverSpec
 from fsivsp.spaces import build_spaces
 from fsivsp.timeschemes import time_scheme
 
@@ -43,7 +44,7 @@ def run(label: str, scheme_name: str, nu: float, args) -> dict:
     materials = Materials(nu=nu, **MATERIALS)
     data = Data(velocity0=Field([0, 0]), displacement0=Field(parse_vector(DISPLACEMENT0, "displacement0", 2)),
                 boundary_velocity={walls: Field([0, 0])})
-    scheme = Scheme(spaces, materials, data, args.dt, solver=args.solver, time_scheme=time_scheme(scheme_name))
+    scheme = Scheme(spaces, materials, data, args.dt, solver=SolverSpec(args.solver), time_scheme=time_scheme(scheme_name))
     energy = [scheme.energy()]
     dissipated = [0.0]
     viscous = scheme._viscous
@@ -87,7 +88,7 @@ def main() -> None:
     parser.add_argument("--maxh", type=float, default=0.15)
     parser.add_argument("--nu", type=float, default=0.5, help="fluid viscosity (the example's 0.5)")
     parser.add_argument("--family", default="taylor_hood")
-    parser.add_argument("--solver", default=None)
+    parser.add_argument("--solver", default="auto")
     parser.add_argument("--json", default=None)
     parser.add_argument("--plot", default=None)
     args = parser.parse_args()

@@ -4,16 +4,16 @@ xⁿ⁻¹ in the checkpoint). The paper's experiment, Δt = 1e-2, 20 steps, the 
 
     python benchmarks/extrapolated_guess.py
 """
-import dataclasses
 
 import numpy as np
 from fsivsp.paper import paper_case
 from fsivsp.geometry import refined
 from fsivsp.study import discretise
 from fsivsp.scheme import Scheme
+from fsivsp.solvers import SolverSpec
 
 def run(extrapolate, level, steps, tol):
-    case = dataclasses.replace(paper_case(1e-2, solver="petsc"), tolerance=tol)
+    case = paper_case(1e-2, solver=SolverSpec("petsc", tolerance=tol))
     scheme, _ = discretise(case, refined(case.coarse_mesh(), level, False))
     previous = []
     original = Scheme.guess

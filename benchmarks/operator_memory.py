@@ -10,13 +10,12 @@ vectors the scheme keeps per step (state, displacement, right-hand sides), divid
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 import ngsolve as ngs
 
 from fsivsp import forms
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.geometry import SOLID, refined
 from fsivsp.report import write_json
 from fsivsp.solvers import compact
@@ -49,9 +48,9 @@ def stress_space_operators(spaces, mat, dt) -> dict[str, int]:
 
 
 def measure(example: str, family: str, level: int) -> dict:
-    case = dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{example}.toml")), family=family, order=1,
-                               solver="iterative")
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.project_refinement))
+    case = load_study_case(EXAMPLES / f"{example}.toml").with_discretisation(family=family, order=1) \
+        .with_solver(method="iterative")
+    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
     spaces, free = scheme.spaces, scheme.spaces.free_dofs()
     lean = {"step": scheme._matrix.nze, "lagged mass": scheme._lagged_mass.nze, "stiffness": scheme._stiffness.nze}
     vectors = 8 * 6 * spaces.mixed.ndof  # state, displacement, rhs, boundary, work, offset load

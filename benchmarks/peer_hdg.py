@@ -13,7 +13,7 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.fields import Field
 from fsivsp.forms import eps
 from fsivsp.geometry import FLUID, SOLID, refined
@@ -53,11 +53,11 @@ def main():
     parser.add_argument("--levels", type=int, default=3)
     parser.add_argument("--order", type=int, default=1)
     args = parser.parse_args()
-    study_case = to_study(load_study_case(CASE))
-    study_case.order = args.order
+    study_case = load_study_case(CASE)
+    study_case.discretisation.order = args.order
     coarse = study_case.coarse_mesh()
     for lvl in range(args.levels):
-        r = level(study_case, refined(coarse, lvl, study_case.project_refinement), lvl)
+        r = level(study_case, refined(coarse, lvl, study_case.discretisation.project_refinement), lvl)
         print(f"TH k={args.order} level={lvl} h={r['h']:.4f} unknowns={r['unknowns']} v={r['v']:.4e} "
               f"sigmaA={r['sigmaA']:.4e} per_step={r['per_step']:.4e} setup={r['setup']:.3f} total={r['total']:.3f}",
               flush=True)

@@ -20,18 +20,18 @@ EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 def pieces(level: int, repeats: int) -> dict:
     import numpy as np
 
-    from fsivsp.case import load_study_case, to_study
+    from fsivsp.case import load_study_case
     from fsivsp.geometry import refined
     from fsivsp.scheme import Scheme
     from fsivsp.spaces import build_spaces
     from fsivsp.study import dirichlet_boundaries, manufactured_data
 
-    case = to_study(load_study_case(EXAMPLE))
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    case = load_study_case(EXAMPLE)
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
-    scheme = Scheme(build_spaces(mesh, case.family, case.order, dirichlet), case.materials, data, case.dt,
-                    solver="iterative")
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress, case.discretisation.initial_velocity)
+    scheme = Scheme(build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet), case.materials, data, case.dt,
+                    solver=case.with_solver(method="iterative").solver)
     matrix, preconditioner = scheme.solver.matrix, scheme.solver.preconditioner
     velocity = preconditioner.velocity
     x = matrix.CreateColVector()

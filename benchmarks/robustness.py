@@ -14,7 +14,7 @@ import dataclasses
 import time
 from pathlib import Path
 
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json
@@ -29,13 +29,13 @@ MAX_ITERATIONS = 20_000
 
 
 def iterations(case, level: int, steps: int, solver: str) -> dict:
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
-    spaces = build_spaces(mesh, case.family, case.order, dirichlet)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
+    spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress, case.discretisation.initial_velocity)
     start = time.perf_counter()
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance,
-                    max_iterations=MAX_ITERATIONS)
+    scheme = Scheme(spaces, case.materials, data, case.dt,
+                    solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS).solver)
     scheme.march(steps)
     statistics = scheme.solver.statistics()
     return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
@@ -49,15 +49,15 @@ def rows(max_level_2d: int, max_level_3d: int):
         for level in range(max_level_2d + 1):
             yield "levels and time steps", "paper", paper_case(dt), level
     for example in ("fluid_in_solid_3d", "solid_in_fluid_3d", "fluid_over_solid_3d"):
-        base = to_study(load_study_case(EXAMPLES / f"{example}.toml"))
+        base = load_study_case(EXAMPLES / f"{example}.toml")
         for dt in TIME_STEPS:
             for level in range(max_level_3d + 1):
                 yield "levels and time steps", example, dataclasses.replace(base, dt=dt), level
-    solid = to_study(load_study_case(EXAMPLES / "solid_in_fluid_3d.toml"))
+    solid = load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
     incompressible = dataclasses.replace(solid.materials, lam=1e4 * solid.materials.mu)
     for level in range(max_level_3d):
         yield "Taylor–Hood k = 2 in 3D", "solid_in_fluid_3d", \
-            dataclasses.replace(solid, family="taylor_hood", order=2), level
+            solid.with_discretisation(family="taylor_hood", order=2), level
         yield "materials", "solid_in_fluid_3d, lam/mu = 1e+04", dataclasses.replace(solid, materials=incompressible), level
     paper = paper_case(1e-2)
     for name, values in (("lam/mu", (1.0, 1e2, 1e4)), ("rho_solid/rho_fluid", (0.1, 1.0, 10.0)),

@@ -24,29 +24,29 @@ EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 
 def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict:
     """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
-    from fsivsp.case import load_study_case, to_study
+    from fsivsp.case import load_study_case
     from fsivsp.geometry import refined
     from fsivsp.scheme import Scheme
     from fsivsp.spaces import build_spaces
     from fsivsp.study import dirichlet_boundaries, manufactured_data
 
     import dataclasses
-    case = dataclasses.replace(to_study(load_study_case(EXAMPLE)), tolerance=tolerance)
+    case = load_study_case(EXAMPLE).with_solver(tolerance=tolerance)
     if maxh is not None:
         from fsivsp.geometry import build_geometry
         coarse = build_geometry("fluid_in_solid", 3, maxh, curvature_safety=1.0)
         case = dataclasses.replace(case, coarse_mesh=lambda: coarse)
     seconds = {}
     start = time.perf_counter()
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     seconds["mesh"] = time.perf_counter() - start
     start = time.perf_counter()
     dirichlet = dirichlet_boundaries(mesh)
-    spaces = build_spaces(mesh, case.family, case.order, dirichlet)
+    spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet)
     seconds["spaces"] = time.perf_counter() - start
     start = time.perf_counter()
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress, case.initial_velocity)
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=solver, tolerance=case.tolerance)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress, case.discretisation.initial_velocity)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.with_solver(method=solver).solver)
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024

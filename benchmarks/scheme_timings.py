@@ -24,7 +24,7 @@ from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json
 from fsivsp.scheme import Scheme
-from fsivsp.solvers import DirectSolver
+from fsivsp.solvers import DirectSolver, SolverSpec
 from fsivsp.spaces import build_spaces
 from fsivsp.study import Errors, dirichlet_boundaries, manufactured_data
 
@@ -50,13 +50,13 @@ def baseline_step(scheme: Scheme) -> float:
 
 
 def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
-    case = paper_case(dt, solver=solver)
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    case = paper_case(dt, solver=SolverSpec(solver or "auto"))
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
     start = time.perf_counter()
     spaces = build_spaces(mesh, "mini", 1, dirichlet)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
-    scheme = Scheme(spaces, case.materials, data, dt, solver=solver)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress)
+    scheme = Scheme(spaces, case.materials, data, dt, solver=case.solver)
     setup = time.perf_counter() - start
     errors = Errors(scheme, case.exact)
     parts = {"rhs": [], "solve": [], "stress": [], "norms": [], "step": []}

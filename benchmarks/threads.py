@@ -33,19 +33,16 @@ def _timed(fn) -> float:
 
 def measure(where: str, level: int, solver: str, threads: int, steps: int) -> dict:
     """One configuration on ``threads`` threads, in this process."""
-    import dataclasses
-
     from fsivsp import forms
-    from fsivsp.case import load_study_case, to_study
+    from fsivsp.case import load_study_case
     from fsivsp.geometry import refined
     from fsivsp.paper import paper_case
     from fsivsp.study import discretise
     from fsivsp.threads import using
 
     with using(threads):
-        case = paper_case(1e-2, solver=solver) if where == "paper" else \
-            dataclasses.replace(to_study(load_study_case(where)), solver=solver)
-        mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+        case = (paper_case(1e-2) if where == "paper" else load_study_case(where)).with_solver(method=solver)
+        mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
         made = {}
         setup = _timed(lambda: made.update(scheme=discretise(case, mesh)[0]))
         scheme = made["scheme"]

@@ -33,6 +33,7 @@ from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.report import write_json
 from fsivsp.scheme import Scheme
+from fsivsp.solvers import SolverSpec
 from fsivsp.spaces import build_spaces
 from fsivsp.study import dirichlet_boundaries, manufactured_data
 from fsivsp.timeschemes import time_scheme
@@ -79,15 +80,16 @@ class Counted:
 
 def paper_builder(level: int, dt: float, solver: str | None):
     """(mesh description, builder(scheme name) -> Scheme) for the paper's experiment at ``level``."""
-    base = paper_case(dt, solver=solver)
-    mesh = refined(base.coarse_mesh(), level, base.project_refinement)
+    spec = SolverSpec(solver or "auto")
+    base = paper_case(dt, solver=spec)
+    mesh = refined(base.coarse_mesh(), level, base.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
 
     def build(name: str) -> Scheme:
-        case = paper_case(dt, solver=solver, time_scheme=time_scheme(name))
+        case = paper_case(dt, solver=spec, time_scheme=time_scheme(name))
         spaces = build_spaces(mesh, "mini", 1, dirichlet)
-        data = manufactured_data(case.exact, case.materials, dirichlet, case.initial_stress)
-        return Scheme(spaces, case.materials, data, dt, solver=solver, time_scheme=case.time_scheme)
+        data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress)
+        return Scheme(spaces, case.materials, data, dt, solver=spec, time_scheme=case.time_scheme)
 
     return {"mesh": f"paper level {level}", "dim": 2, "vertices": mesh.nv, "dt": dt}, build
 
@@ -96,7 +98,7 @@ def example_builder(path: Path, solver: str | None):
     from fsivsp.run import build_scheme, load_run_case
     case = load_run_case(path)
     if solver is not None:
-        case = dataclasses.replace(case, discretisation=dataclasses.replace(case.discretisation, solver=solver))
+        case = dataclasses.replace(case, solver=dataclasses.replace(case.solver, method=solver))
 
     def build(name: str) -> Scheme:
         return build_scheme(dataclasses.replace(case, time_scheme=time_scheme(name)))

@@ -1,6 +1,5 @@
 """The iterative solver (MinRes, block preconditioner): the direct solver's errors, bounded iterations,
 and its errors through the CLI."""
-import dataclasses
 import json
 import subprocess
 import sys
@@ -10,11 +9,11 @@ import ngsolve as ngs
 import numpy as np
 import pytest
 
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.cli import main
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
-from fsivsp.solvers import NotConverged, schur
+from fsivsp.solvers import NotConverged, SolverSpec, schur
 from fsivsp.study import discretise, run_level, study
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -22,8 +21,8 @@ EXAMPLES = Path(__file__).parent.parent / "examples"
 
 def same_errors(case, levels, rtol=1e-6) -> list[dict]:
     """Run ``case`` with both solvers; assert equal error norms; return the iterative records."""
-    direct = study(dataclasses.replace(case, solver="direct"), levels)
-    iterative = study(dataclasses.replace(case, solver="iterative"), levels)
+    direct = study(case.with_solver(method="direct"), levels)
+    iterative = study(case.with_solver(method="iterative"), levels)
     for a, b in zip(direct, iterative):
         assert a["solver"] != "iterative" and b["solver"] == "iterative"
         for name, error in a["errors"].items():
@@ -45,35 +44,35 @@ def test_paper_experiment_equals_direct():
     ("fluid_over_solid_3d", range(0, 1)),
 ])
 def test_examples_equal_direct(example, levels):
-    same_errors(to_study(load_study_case(EXAMPLES / f"{example}.toml")), levels)
+    same_errors(load_study_case(EXAMPLES / f"{example}.toml"), levels)
 
 
 @pytest.mark.parametrize("order", [2, 3])
 def test_taylor_hood_higher_orders_equal_direct(order):
     """A P_k pressure, k ≥ 2: F's V-cycle under block Gauss–Seidel over the pressure's vertex patches, the plain
     commutator; level 0 factorises F, level 1 has a hierarchy."""
-    case = to_study(load_study_case(EXAMPLES / "fluid_over_solid_2d.toml"))
-    same_errors(dataclasses.replace(case, order=order), range(0, 2))
+    case = load_study_case(EXAMPLES / "fluid_over_solid_2d.toml")
+    same_errors(case.with_discretisation(order=order), range(0, 2))
 
 
 @pytest.mark.parametrize("order", [1, 2])
 def test_taylor_hood_in_3d_equals_direct(order):
     """P2 and P3 velocities in 3D (the 3D examples are MINI): Gauss–Seidel on the whole velocity space around
     the V-cycle of its vertex block."""
-    case = to_study(load_study_case(EXAMPLES / "solid_in_fluid_3d.toml"))
-    same_errors(dataclasses.replace(case, family="taylor_hood", order=order), range(0, 2))
+    case = load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
+    same_errors(case.with_discretisation(family="taylor_hood", order=order), range(0, 2))
 
 
 def test_cahouet_chabard_equals_direct(monkeypatch):
     """A mesh without a refinement hierarchy whose F is too large to factorise takes Cahouet–Chabard."""
     monkeypatch.setattr(schur, "FACTORISE_MAX_DOFS", 0)
     for name in ("fluid_in_solid_2d", "fluid_in_solid_3d"):
-        records = same_errors(to_study(load_study_case(EXAMPLES / f"{name}.toml")), range(0, 1))
+        records = same_errors(load_study_case(EXAMPLES / f"{name}.toml"), range(0, 1))
         assert records[0]["preconditioner"]["pressure"] == "Cahouet-Chabard"
 
 
 def mean_iterations(case, level, jacobi_velocity=False) -> float:
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.project_refinement))
+    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
     if jacobi_velocity:  # the velocity block by its diagonal alone, the pressure block unchanged
         solver, spaces = scheme.solver, scheme.spaces
         velocity = np.fromiter(spaces.mixed.FreeDofs(), dtype=bool, count=spaces.mixed.ndof)
@@ -90,7 +89,7 @@ def test_iterations_bounded_over_levels():
     1.2 per level (measured 22.4, 24.8, 28.2: 1.11, 1.14; before the commutator and the two-level velocity
     cycle 60.8, 75.8, 81.4); with the velocity block by its diagonal they grow by more than 1.6 (140.6, 358.4:
     2.55)."""
-    case = paper_case(1e-2, solver="iterative")
+    case = paper_case(1e-2, solver=SolverSpec("iterative"))
     ours = [mean_iterations(case, level) for level in (1, 2, 3)]
     assert ours[1] / ours[0] < 1.2 and ours[2] / ours[1] < 1.2, ours
     jacobi = [mean_iterations(case, level, jacobi_velocity=True) for level in (1, 2)]
@@ -104,9 +103,10 @@ from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.study import discretise
 from fsivsp.threads import using
-case = paper_case(1e-2, solver="iterative")
+from fsivsp.solvers import SolverSpec
+case = paper_case(1e-2, solver=SolverSpec("iterative"))
 with using(1):  # bit-identical on one thread; on more, runs agree to round-off (docs/solvers.md, "Threads")
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), 2, case.project_refinement))
+    scheme, _ = discretise(case, refined(case.coarse_mesh(), 2, case.discretisation.project_refinement))
     scheme.march(3)
 print(hashlib.sha1(scheme.state.vec.FV().NumPy().tobytes()).hexdigest())
 """
@@ -121,7 +121,7 @@ def test_iterative_runs_are_bit_identical():
 
 
 def test_not_converged_is_an_error():
-    case = dataclasses.replace(paper_case(1e-2, solver="iterative"), max_iterations=3)
+    case = paper_case(1e-2, solver=SolverSpec("iterative", max_iterations=3))
     with pytest.raises(NotConverged, match="did not reach the tolerance"):
         run_level(case, refined(case.coarse_mesh(), 0, False), 0)
 
@@ -133,11 +133,11 @@ def test_zero_data_is_a_zero_solution():
     from fsivsp.scheme import Scheme
     from fsivsp.study import manufactured_data
 
-    case = paper_case(1e-2, solver="iterative")
+    case = paper_case(1e-2, solver=SolverSpec("iterative"))
     spaces = discretise(case, refined(case.coarse_mesh(), 0, False))[0].spaces
     zero = ExactSolution.parse(["0", "0"], "0", ["0", "0"], 2)
     scheme = Scheme(spaces, case.materials, manufactured_data(zero, case.materials, spaces.dirichlet,
-                                                              case.initial_stress), case.dt, solver="iterative")
+                                                              case.discretisation.initial_stress), case.dt, solver=case.solver)
     scheme.march(2)
     assert scheme.solver.iterations == [0, 0]
     assert np.abs(scheme.state.vec.FV().NumPy()).max() == 0.0
@@ -167,11 +167,11 @@ def test_refinement_hierarchy_is_found():
     """The vertex counts of the levels come back from the parents of the finest mesh's vertices, and the
     preconditioner takes the multigrid where there is a hierarchy, the component-wise AMG where not."""
     from fsivsp.solvers.multigrid import vertex_levels
-    case = to_study(load_study_case(EXAMPLES / "fluid_in_solid_3d.toml"))
+    case = load_study_case(EXAMPLES / "fluid_in_solid_3d.toml")
     coarse = case.coarse_mesh()
     counts = [refined(coarse, level, False).nv for level in range(3)]
     assert vertex_levels(refined(coarse, 2, False))[1] == counts
     assert vertex_levels(coarse)[1] == counts[:1]
-    iterative = dataclasses.replace(case, solver="iterative")
+    iterative = case.with_solver(method="iterative")
     assert discretise(iterative, refined(coarse, 1, False))[0].solver.preconditioner.multigrid
     assert not discretise(iterative, refined(coarse, 0, False))[0].solver.preconditioner.multigrid

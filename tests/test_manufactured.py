@@ -6,7 +6,8 @@ from fsivsp.expressions import T, X, Y
 from fsivsp.geometry import paper_channel, refined
 from fsivsp.manufactured import ExactSolution, ManufacturedError
 from fsivsp.materials import Materials
-from fsivsp.study import Case, run_level
+from fsivsp.case import Case, Discretisation
+from fsivsp.study import run_level
 
 MAT = Materials(rho_fluid=1.0, rho_solid=2.0, nu=0.5, lam=1.5, mu=0.75)
 
@@ -33,6 +34,7 @@ def test_fluid_at_rest_with_a_pressure_is_exact(family, pressure):
     """v = u = 0 and p linear: the load (σ_F − σ_S) n = −p n on Γ must balance it exactly.
     (A wrong sign of the interface load or of n makes p_h = −p.)"""
     exact = ExactSolution.parse(["0", "0"], pressure, ["0", "0"], 2)
-    case = Case("rest", paper_channel, MAT, exact, T=0.04, dt=0.02, family=family, initial_stress="projection")
+    case = Case("rest", paper_channel, MAT, exact, T=0.04, dt=0.02,
+                discretisation=Discretisation(family=family, initial_stress="projection"))
     record = run_level(case, refined(paper_channel(), 0), 0)
     assert record["errors"]["total"] < 1e-12

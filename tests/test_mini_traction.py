@@ -17,7 +17,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from ngsolve import InnerProduct, div
 
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.fields import Field
 from fsivsp.forms import DATA_BONUS, eps, integral, step_matrix
 from fsivsp.geometry import FLUID, INTERFACE, interface_normal, refined
@@ -25,7 +25,7 @@ from fsivsp.spaces import Spaces, build_spaces
 from fsivsp.study import Errors, dirichlet_boundaries, discretise
 from fsivsp.verification import EXAMPLES
 
-CASE = to_study(load_study_case(EXAMPLES / "fluid_in_solid_3d.toml"))  # v steady, MINI, Δt = 0.02
+CASE = load_study_case(EXAMPLES / "fluid_in_solid_3d.toml")  # v steady, MINI, Δt = 0.02
 
 
 def fluid_dofs(space: ngs.FESpace) -> ngs.BitArray:

@@ -7,7 +7,7 @@ import pytest
 
 import fsivsp.norms as norms
 import fsivsp.projection as projection
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.geometry import refined
 from fsivsp.study import run_level
 
@@ -19,9 +19,9 @@ EXAMPLES = Path(__file__).parents[1] / "examples"
 def test_conjugate_gradients_equal_cholesky(monkeypatch, example, level, most):
     """At most ``most`` CG iterations a projection (measured: 16 and 24; Gauss–Seidel without the V-cycle of the
     vertex block: 56 and 66)."""
-    case = to_study(load_study_case(EXAMPLES / example))
+    case = load_study_case(EXAMPLES / example)
     case = dataclasses.replace(case, T=case.dt)
-    mesh = refined(case.coarse_mesh(), level, case.project_refinement)
+    mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     solves = []
 
     def recorded(*args):

@@ -12,7 +12,7 @@ import dataclasses
 
 import pytest
 
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.manufactured import ExactSolution
 from fsivsp.study import study
 from fsivsp.verification import CONFIGURATIONS, EXAMPLES
@@ -28,8 +28,8 @@ ELEMENTS = [("mini", 1, "projection"), ("mini", 1, "displacement"), ("taylor_hoo
 def total_error(configuration: str, dim: int, fields: tuple, level: int, **changes) -> dict:
     """The errors of the example case of (configuration, dim) run with the exact ``fields`` on ``level``."""
     velocity, pressure, displacement = fields
-    case = dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{configuration}_{dim}d.toml")), **changes)
-    if case.curved and case.family == "taylor_hood":
+    case = load_study_case(EXAMPLES / f"{configuration}_{dim}d.toml").with_discretisation(**changes)
+    if case.discretisation.curved and case.discretisation.family == "taylor_hood":
         pressure = "1.5"  # P_k pressures on curved cells are polynomials in reference coordinates only
     exact = ExactSolution.parse(velocity, pressure, displacement, dim=dim, field="patch")
     record, = study(dataclasses.replace(case, exact=exact), range(level, level + 1))

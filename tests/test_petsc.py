@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from fsivsp.case import CaseError, load_study_case, read_petsc_options, to_study
+from fsivsp.case import CaseError, load_study_case
+from fsivsp.solvers import read_petsc_options
 from fsivsp.cli import main
 from fsivsp.paper import paper_case
 from fsivsp.solvers import petsc
@@ -20,8 +21,8 @@ pytestmark = pytest.mark.skipif(petsc.available() is not None, reason=str(petsc.
 
 def same_errors(case, levels, rtol=1e-6) -> list[dict]:
     """Run ``case`` with the direct solver and with PETSc; assert equal error norms; return PETSc's records."""
-    direct = study(dataclasses.replace(case, solver="direct"), levels)
-    records = study(dataclasses.replace(case, solver="petsc"), levels)
+    direct = study(case.with_solver(method="direct"), levels)
+    records = study(case.with_solver(method="petsc"), levels)
     for a, b in zip(direct, records):
         assert b["solver"] == "petsc" and a["solver"] != "petsc"
         for name, error in a["errors"].items():
@@ -30,7 +31,7 @@ def same_errors(case, levels, rtol=1e-6) -> list[dict]:
 
 
 def example(name: str, **changes):
-    return dataclasses.replace(to_study(load_study_case(EXAMPLES / f"{name}.toml")), **changes)
+    return load_study_case(EXAMPLES / f"{name}.toml").with_discretisation(**changes)
 
 
 @pytest.mark.parametrize("name, levels, changes", [
@@ -61,7 +62,7 @@ def test_jacobi_blocks_need_many_more_iterations():
     grows with the level."""
     jacobi = {"fieldsplit_velocity_pc_type": "jacobi", "schur_approximation": "petsc",
               "fieldsplit_pressure_pc_type": "jacobi", "pc_fieldsplit_schur_precondition": "selfp"}
-    case = dataclasses.replace(paper_case(1e-2), solver="petsc", petsc_options=jacobi, T=0.05)
+    case = dataclasses.replace(paper_case(1e-2).with_solver(method="petsc", petsc=jacobi), T=0.05)
     counts = [r["iterations"]["mean"] for r in study(case, range(1, 3))]
     assert counts[0] > 40 and counts[1] > 1.3 * counts[0], counts
 

@@ -97,12 +97,12 @@ def test_lean_operators_equal_the_explicit_stress_update(paper_meshes, case):
     paper's experiment (σ⁰ from the displacement, 2D) and the 3D fluid ball (σ⁰ by the projection (26))."""
     from pathlib import Path
 
-    from fsivsp.case import load_study_case, to_study
+    from fsivsp.case import load_study_case
     from fsivsp.geometry import refined
     if case == "paper":
         scheme, _ = paper_scheme(paper_meshes[1])
     else:
-        study = to_study(load_study_case(Path(__file__).parents[1] / "examples" / f"{case}.toml"))
+        study = load_study_case(Path(__file__).parents[1] / "examples" / f"{case}.toml")
         scheme, _ = discretise(study, refined(study.coarse_mesh(), 0, False))
     for state, stress in explicit_reference(scheme, 5):
         assert state < 1e-11 and stress < 1e-11, (state, stress)

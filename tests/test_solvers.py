@@ -318,11 +318,11 @@ def wall_pressure_system():
     PARDISO pairs them with velocity dofs (matching)."""
     from pathlib import Path
 
-    from fsivsp.case import load_study_case, to_study
+    from fsivsp.case import load_study_case
     from fsivsp.solvers import compact
     from fsivsp.study import dirichlet_boundaries
 
-    case = to_study(load_study_case(Path(__file__).resolve().parents[1] / "examples" / "peer_hdg_example1.toml"))
+    case = load_study_case(Path(__file__).resolve().parents[1] / "examples" / "peer_hdg_example1.toml")
     mesh = case.coarse_mesh()
     spaces = build_spaces(mesh, "taylor_hood", 2, dirichlet_boundaries(mesh))
     matrix = step_matrix(spaces, case.materials, case.time_scheme.tau(1 / 1024)).Assemble().mat

@@ -12,18 +12,18 @@ from fsivsp.cli import main
 from fsivsp.threads import LOCAL_SIZE_VARIABLES, ThreadsError, check, default_threads, per_rank
 
 _RUN = """
-import dataclasses, sys
+import sys
 import numpy as np
-from fsivsp.case import load_study_case, to_study
+from fsivsp.case import load_study_case
 from fsivsp.geometry import refined
 from fsivsp.paper import paper_case
 from fsivsp.study import discretise
 from fsivsp.threads import using
 where, solver, threads, level, tolerance = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5])
 with using(threads):
-    case = paper_case(1e-2) if where == "paper" else to_study(load_study_case(where))
-    case = dataclasses.replace(case, solver=solver, tolerance=tolerance)
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.project_refinement))
+    case = paper_case(1e-2) if where == "paper" else load_study_case(where)
+    case = case.with_solver(method=solver, tolerance=tolerance)
+    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
     scheme.march(3)
     print(scheme.state.vec.FV().NumPy().tobytes().hex())
 """

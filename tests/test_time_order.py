@@ -4,7 +4,8 @@ import math
 from fsivsp.geometry import build_geometry
 from fsivsp.manufactured import ExactSolution
 from fsivsp.materials import Materials
-from fsivsp.study import Case, study
+from fsivsp.case import Case, Discretisation
+from fsivsp.study import study
 
 EXACT = ExactSolution.parse(["exp(t)*sin(pi*y)", "exp(t)*sin(pi*x)"], "exp(t)*cos(pi*x)*cos(pi*y)",
                             ["exp(t)*sin(pi*y)", "exp(t)*sin(pi*x)"], 2)
@@ -15,8 +16,9 @@ def test_first_order_in_time():
     coarse = build_geometry("fluid_over_solid", 2, 0.15)
     errors = []
     for dt in (0.1, 0.05, 0.025, 0.0125):
+        taylor_hood = Discretisation(family="taylor_hood", order=2, initial_stress="projection", curved=True)
         case = Case("time", lambda: coarse, Materials(1.0, 2.0, 0.5, 1.5, 0.75), EXACT, T=0.5, dt=dt,
-                    family="taylor_hood", order=2, initial_stress="projection", curved=True)
+                    discretisation=taylor_hood)
         (record,) = study(case, range(2, 3))
         errors.append(record["errors"])
     for coarse_dt, fine_dt in zip(errors, errors[1:]):

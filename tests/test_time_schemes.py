@@ -15,6 +15,7 @@ from fsivsp.materials import Materials
 from fsivsp.paper import paper_case
 from fsivsp.data import Data
 from fsivsp.scheme import Scheme
+from fsivsp.solvers import SolverSpec
 from fsivsp.spaces import build_spaces
 from fsivsp.study import discretise
 from fsivsp.timeschemes import BDF2, Theta, time_scheme
@@ -35,7 +36,7 @@ def released(spaces, scheme, dt=0.05, nu=0.5):
     displacement = Field(parse_vector(["0.1*sin(pi*x)*y*(y + 1)", "0.1*sin(pi*x)*y*(y + 1)"], "u0", 2))
     zero = Field(parse_vector(["0", "0"], "v0", 2))
     materials = Materials(rho_fluid=1.0, rho_solid=2.0, nu=nu, lam=1.5, mu=0.75)
-    return Scheme(spaces, materials, Data(velocity0=zero, displacement0=displacement), dt, solver="direct",
+    return Scheme(spaces, materials, Data(velocity0=zero, displacement0=displacement), dt, solver=SolverSpec("direct"),
                   time_scheme=scheme)
 
 

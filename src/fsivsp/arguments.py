@@ -55,15 +55,20 @@ def positive_float(text: str) -> float:
     return value
 
 
-def tolerance_arg(text: str) -> float:
-    """A number in (0, 1)."""
+def number_arg(text: str) -> float:
+    """A number (its range is the field's: `SolverSpec` checks a tolerance)."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        value = float("nan")
-    if not 0 < value < 1:
-        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text!r}")
-    return value
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+
+
+def whole_arg(text: str) -> int:
+    """A whole number (its range is the field's: `SolverSpec` checks a thread count)."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
 
 
 def positive_int(text: str) -> int:
@@ -92,8 +97,9 @@ def scheme_options(parser: argparse.ArgumentParser) -> None:
 
 
 def threads_option(parser: argparse.ArgumentParser, default: str) -> None:
-    """--threads N (`threads.using`; the command enters it when the run starts)."""
-    parser.add_argument("--threads", type=positive_int, default=None, metavar="N",
+    """--threads N (the `SolverSpec`'s threads, `solver_spec`; the command enters `threads.using` when the run
+    starts)."""
+    parser.add_argument("--threads", type=whole_arg, default=None, metavar="N",
                         help=f"threads for assembly, set-up and solves (default: {default})")
 
 
@@ -114,7 +120,8 @@ def chosen_scheme(args, default):
 def petsc_options_arg(text: str) -> dict[str, str]:
     """``--petsc-options "-ksp_monitor -fieldsplit_velocity_pc_type gamg"``: PETSc options (without the
     ``fsivsp_`` prefix) as the case file's ``[solver.petsc]`` table takes them."""
-    from .case import CaseError, read_petsc_options
+    from .case import CaseError
+    from .solvers import read_petsc_options
 
     def is_name(word: str) -> bool:
         return word.startswith("-") and not word[1:2].isdigit() and word[1:2] != "."
@@ -140,3 +147,25 @@ def petsc_argument(parser) -> None:
                         help="PETSc options of --solver petsc, e.g. '-ksp_monitor -fieldsplit_velocity_pc_type gamg' "
                              "(docs/solvers.md; also the case file's [solver.petsc] and PETSC_OPTIONS with the "
                              "fsivsp_ prefix)")
+
+
+def solver_labels(prog: str) -> dict[str, str]:
+    """The command line's names of the `SolverSpec` fields, e.g. ``fsivsp paper: --solver``."""
+    return {"method": f"{prog}: --solver", "tolerance": f"{prog}: --tolerance", "threads": f"{prog}: --threads",
+            "petsc": f"{prog}: --petsc-options"}
+
+
+def solver_spec(args, prog: str, base=None):
+    """``base`` (None: the default `SolverSpec`) with the command's --solver, --tolerance, --threads and
+    --petsc-options where given (the PETSc options added to the base's), checked as `SolverSpec` does."""
+    from dataclasses import replace
+
+    from .solvers import SolverSpec
+
+    base = SolverSpec() if base is None else base
+    given = {field: getattr(args, option, None) for field, option in
+             (("method", "solver"), ("tolerance", "tolerance"), ("threads", "threads"))}
+    changes = {field: value for field, value in given.items() if value is not None}
+    if getattr(args, "petsc_options", None):
+        changes["petsc"] = {**base.petsc, **args.petsc_options}
+    return replace(base, **changes, where=solver_labels(prog))

@@ -1,4 +1,5 @@
-"""Case files (TOML): reading and validating every field before any heavy work.
+"""Cases: the one `Case` type (a study case has an exact solution; `run.RunCase` adds a run's fields) and case
+files (TOML), every field read and validated before any heavy work.
 
 Every problem with a case file is a `CaseError` whose message is one line naming the
 field and what was expected, e.g. ``materials.mu: expected a positive number, got -1``.
@@ -6,19 +7,23 @@ field and what was expected, e.g. ``materials.mu: expected a positive number, go
 from __future__ import annotations
 
 import difflib
-import math
-import re
 import sys
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
+from .inputs import CaseError, is_number, is_whole
 from .materials import Materials
 from .data import INITIAL_STRESS, INITIAL_VELOCITY
-from .solvers import MAX_ITERATIONS, TOLERANCE, solver_names
+from .solvers import MAX_ITERATIONS, TOLERANCE, SolverSpec
 from .timeschemes import BDF2, Theta, time_scheme
 from .spaces import FAMILIES
+
+if TYPE_CHECKING:
+    import ngsolve as ngs
+
+    from .manufactured import ExactSolution
 
 SECTIONS = {
     "geometry": None,  # free-form parameters, checked by the geometry builder
@@ -30,10 +35,10 @@ SECTIONS = {
     "solver": {"petsc"},
 }
 ORDERS = {"mini": (1, 1), "taylor_hood": (1, 3)}
-
-
-class CaseError(ValueError):
-    """A case file that cannot be run; one line naming the field."""
+#: The case file's names of the `SolverSpec` fields (``[discretisation]`` and ``[solver]``).
+SOLVER_FIELDS = {"method": "discretisation.solver", "tolerance": "discretisation.tolerance",
+                 "max_iterations": "discretisation.max_iterations", "threads": "discretisation.threads",
+                 "petsc": "solver.petsc"}
 
 
 def _suggest(word: str, options) -> str:
@@ -55,7 +60,7 @@ def number(table: dict, key: str, where: str, default=None, minimum: float | Non
             raise CaseError(f"{where}.{key}: missing; expected a number")
         return default
     value = table[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not is_number(value):
         raise CaseError(f"{where}.{key}: expected a number, got {value!r}")
     if minimum is not None and (value <= minimum if strict else value < minimum):
         what = "a positive number" if minimum == 0 and strict else f"a number {'>' if strict else '>='} {minimum:g}"
@@ -138,69 +143,42 @@ def kinematic_note(nu: float, rho_fluid: float) -> None:
 
 @dataclass
 class Discretisation:
+    """The element (``family``, ``order``), how σ⁰ and v⁰ are made, whether cells on curved boundaries are
+    ``curved`` and refinement moves new boundary nodes onto them (``project_refinement``). A case file's
+    ``[discretisation]`` (but its solver: `SolverSpec`) curves by default, and projects when it curves."""
+
     family: str = "mini"
     order: int = 1
     initial_stress: str = "displacement"
     initial_velocity: str = "interpolation"
-    solver: str = "auto"
-    curved: bool = True
-    tolerance: float = TOLERANCE
-    max_iterations: int = MAX_ITERATIONS
-    threads: int | None = None   # None: `threads.DEFAULT`
-    petsc: dict[str, str] = field(default_factory=dict)
+    curved: bool = False
+    project_refinement: bool = True
 
 
-PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
-
-
-def read_petsc_options(table: dict, where: str = "solver.petsc") -> dict[str, str]:
-    """The ``[solver.petsc]`` table: PETSc option names (without the leading dash and the ``fsivsp_`` prefix,
-    e.g. ``ksp_monitor = true``, ``fieldsplit_velocity_pc_type = "gamg"``) to strings, numbers or booleans
-    (true: the option without a value; false: left out), as `solvers.petsc` passes them to PETSc."""
-    if not isinstance(table, dict):
-        raise CaseError(f"{where}: expected a table of PETSc options, got {table!r}")
-    options = {}
-    for key, value in table.items():
-        name = key.lstrip("-")
-        if not PETSC_OPTION.fullmatch(name):
-            raise CaseError(f"{where}.{key}: expected a PETSc option name (letters, digits, _), got {key!r}")
-        if isinstance(value, bool):
-            if value:
-                options[name] = ""
-        elif isinstance(value, (str, int, float)):
-            options[name] = str(value)
-        else:
-            raise CaseError(f"{where}.{key}: expected a string, a number or true/false, got {value!r}")
-    return options
-
-
-def read_discretisation(table: dict, solver: dict | None = None) -> Discretisation:
-    """``[discretisation]``, and the PETSc options of ``[solver]`` (``solver``)."""
+def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discretisation, SolverSpec]:
+    """``[discretisation]`` and ``[solver]`` (``solver``): the discretisation and the `SolverSpec` (`read_solver`)."""
     check_keys(table, SECTIONS["discretisation"], "discretisation")
-    solver = solver or {}
-    check_keys(solver, SECTIONS["solver"], "solver")
-    petsc = read_petsc_options(solver.get("petsc", {}))
+    spec = read_solver(table, solver or {})
     family = choice(table, "family", "discretisation", FAMILIES, "mini")
     low, high = ORDERS[family]
     order = table.get("order", low)
-    if isinstance(order, bool) or not isinstance(order, int) or not low <= order <= high:
+    if not is_whole(order, low, high):
         raise CaseError(f"discretisation.order: expected a whole number from {low} to {high} for {family}, got {order!r}")
     initial = choice(table, "initial_stress", "discretisation", INITIAL_STRESS, INITIAL_STRESS[0])
     velocity = choice(table, "initial_velocity", "discretisation", INITIAL_VELOCITY, INITIAL_VELOCITY[0])
-    method = choice(table, "solver", "discretisation", solver_names(), "auto")
-    tolerance = number(table, "tolerance", "discretisation", TOLERANCE, minimum=0)
-    if tolerance >= 1:
-        raise CaseError(f"discretisation.tolerance: expected a number in (0, 1), got {tolerance!r}")
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    limit = table.get("max_iterations", MAX_ITERATIONS)
-    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
-        raise CaseError(f"discretisation.max_iterations: expected a positive whole number, got {limit!r}")
-    threads = table.get("threads")
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-        raise CaseError(f"discretisation.threads: expected a positive whole number, got {threads!r}")
-    return Discretisation(family, order, initial, velocity, method, curved, tolerance, limit, threads, petsc)
+    return Discretisation(family, order, initial, velocity, curved, project_refinement=curved), spec
+
+
+def read_solver(table: dict, solver: dict) -> SolverSpec:
+    """The `SolverSpec` of ``[discretisation]``'s solver, tolerance, max_iterations and threads (``table``) and
+    ``[solver.petsc]`` (in ``solver``)."""
+    check_keys(solver, SECTIONS["solver"], "solver")
+    return SolverSpec(table.get("solver", "auto"), table.get("tolerance", TOLERANCE),
+                      table.get("max_iterations", MAX_ITERATIONS), table.get("threads"), solver.get("petsc", {}),
+                      where=SOLVER_FIELDS)
 
 
 def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
@@ -218,24 +196,34 @@ def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
 
 
 @dataclass
-class CaseFile:
-    """The sections every case file has, validated."""
+class Case:
+    """A problem: its (coarse) mesh, materials, exact solution (a study case, ``fsivsp study``; None: a run case,
+    `run.RunCase`, whose mesh is its ``mesh``), time, `Discretisation` and `SolverSpec`; from a case file also its
+    ``path`` and validated ``[geometry]`` table."""
 
-    path: Path
-    geometry: dict[str, Any]
-    dim: int
+    name: str
+    coarse_mesh: Callable[[], ngs.Mesh] | None
     materials: Materials
+    exact: ExactSolution | None
     T: float
     dt: float
-    time_scheme: Theta | BDF2
-    discretisation: Discretisation
+    time_scheme: Theta | BDF2 = Theta()
+    discretisation: Discretisation = field(default_factory=Discretisation)
+    solver: SolverSpec = field(default_factory=SolverSpec)
+    path: Path | None = None
+    geometry: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def steps(self) -> int:
+        return max(1, round(self.T / self.dt))
 
-@dataclass
-class StudyCase(CaseFile):
-    """A manufactured-solution case file (``fsivsp study``)."""
+    def with_discretisation(self, **changes) -> Case:
+        """This case with the fields ``changes`` of its `Discretisation` (e.g. ``family="taylor_hood"``)."""
+        return replace(self, discretisation=replace(self.discretisation, **changes))
 
-    exact: Any = None
+    def with_solver(self, **changes) -> Case:
+        """This case with the fields ``changes`` of its `SolverSpec` (e.g. ``method="iterative"``)."""
+        return replace(self, solver=replace(self.solver, **changes))
 
 
 def read_geometry(table: dict, folder: Path = Path(".")) -> tuple[dict, int]:
@@ -265,45 +253,50 @@ def resolve_path(value: Any, folder: Path, where: str) -> Any:
     return value
 
 
-def load_study_case(path: str | Path) -> StudyCase:
-    """Read and validate a case file with an [exact] section (``fsivsp study``)."""
+def read_case(doc: dict, path: Path, young_allowed: bool = False) -> tuple[dict[str, Any], int]:
+    """The `Case` fields of the sections every case file has ([geometry], [materials], [time], [discretisation],
+    [solver]; ``young_allowed``: `read_materials`) and d."""
+    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
+    materials = read_materials(section(doc, "materials"), dim, young_allowed)
+    T, dt, scheme = read_time(section(doc, "time"))
+    disc, spec = read_discretisation(section(doc, "discretisation", required=False),
+                                     section(doc, "solver", required=False))
+    return {"name": path.stem, "materials": materials, "T": T, "dt": dt, "time_scheme": scheme,
+            "discretisation": disc, "solver": spec, "path": path, "geometry": geometry}, dim
+
+
+def build_mesh(geometry: dict, dim: int, skip: tuple[str, ...] = ()) -> ngs.Mesh:
+    """The mesh of a validated ``[geometry]`` table (``skip``: keys that are not the geometry builder's)."""
+    from .geometry import build_geometry
+
+    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh", *skip)}
+    return build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+
+
+def read_exact(table: dict, dim: int) -> ExactSolution:
+    """``[exact]``: the manufactured solution's velocity, pressure and displacement."""
     from .expressions import ExpressionError
     from .manufactured import ExactSolution, ManufacturedError
 
-    doc = read_toml(path)
-    check_command(doc, Path(path), "study")
-    check_keys(doc, SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"), Path(path).parent)
-    materials = read_materials(section(doc, "materials"), dim)
-    T, dt, scheme = read_time(section(doc, "time"))
-    disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
-    exact_table = section(doc, "exact")
-    check_keys(exact_table, SECTIONS["exact"], "exact")
+    check_keys(table, SECTIONS["exact"], "exact")
     for key in SECTIONS["exact"]:
-        if key not in exact_table:
+        if key not in table:
             raise CaseError(f"exact.{key}: missing; expected {'an expression' if key == 'pressure' else f'a list of {dim} expressions'}")
     try:
-        exact = ExactSolution.parse(exact_table["velocity"], exact_table["pressure"], exact_table["displacement"], dim)
+        return ExactSolution.parse(table["velocity"], table["pressure"], table["displacement"], dim)
     except (ExpressionError, ManufacturedError) as error:
         raise CaseError(str(error)) from None
-    return StudyCase(Path(path), geometry, dim, materials, T, dt, scheme, disc, exact)
 
 
-def to_study(case: StudyCase):
-    """The `study.Case` of a validated case file."""
-    from .geometry import build_geometry
-    from .study import Case
+def load_study_case(source: str | Path | dict, overrides: dict | None = None) -> Case:
+    """Read and validate a case file with an [exact] section (``fsivsp study``; a dict and ``overrides`` as
+    `run.load_run_case` takes them), its coarse mesh built (which validates the geometry before any solve)."""
+    from .overrides import case_document
 
-    params = {k: v for k, v in case.geometry.items() if k not in ("kind", "dim", "maxh")}
-    kind, maxh = case.geometry["kind"], case.geometry.get("maxh")
-    coarse = build_geometry(kind, case.dim, maxh, **params)  # validates the geometry before any solve
-    disc = case.discretisation
-    return Case(
-        name=case.path.stem,
-        coarse_mesh=lambda: coarse,
-        materials=case.materials, exact=case.exact, T=case.T, dt=case.dt,
-        family=disc.family, order=disc.order, initial_stress=disc.initial_stress,
-        initial_velocity=disc.initial_velocity,
-        project_refinement=disc.curved, solver=disc.solver, curved=disc.curved, tolerance=disc.tolerance,
-        max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme,
-    )
+    path, doc = case_document(source, overrides)
+    check_command(doc, path, "study")
+    check_keys(doc, SECTIONS, "")
+    fields, dim = read_case(doc, path)
+    exact = read_exact(section(doc, "exact"), dim)
+    coarse = build_mesh(fields["geometry"], dim)
+    return Case(coarse_mesh=lambda: coarse, exact=exact, **fields)

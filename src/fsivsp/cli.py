@@ -16,8 +16,8 @@ from .geometry import GeometryError
 from .data import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
 from .threads import ThreadsError, using
-from .arguments import (Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, petsc_argument,
-                        positive_float, positive_int, scheme_options, threads_option, tolerance_arg)
+from .arguments import (Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, number_arg,
+                        petsc_argument, positive_float, positive_int, scheme_options, solver_spec, threads_option)
 
 def build_parser() -> Parser:
     parser = Parser(prog="fsivsp", description="Velocity–stress–pressure finite elements for linear FSI "
@@ -44,7 +44,7 @@ def build_parser() -> Parser:
     paper.add_argument("--solver", default="auto", metavar="NAME",
                        help="auto (default: direct below the measured crossover, iterative above), direct, iterative, "
                        "or a direct method (pardiso, umfpack, sparsecholesky, scipy)")
-    paper.add_argument("--tolerance", type=tolerance_arg, default=TOLERANCE,
+    paper.add_argument("--tolerance", type=number_arg, default=TOLERANCE,
                        help=f"the iterative solver's relative tolerance (default {TOLERANCE:g})")
     scheme_options(paper)
     petsc_argument(paper)
@@ -105,12 +105,12 @@ def build_parser() -> Parser:
     return parser
 
 
-def paper_options(args) -> dict:
+def paper_options(args, spec) -> dict:
+    """The `paper_case` options of ``fsivsp paper`` (``spec``: its `SolverSpec`, `solver_spec`)."""
     from .timeschemes import Theta
 
     return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
-            "project_refinement": args.project, "solver": args.solver, "tolerance": args.tolerance,
-            "petsc_options": args.petsc_options, "time_scheme": chosen_scheme(args, Theta())}
+            "project_refinement": args.project, "solver": spec, "time_scheme": chosen_scheme(args, Theta())}
 
 
 def paper_job(job: tuple[float, int, dict]) -> dict:
@@ -119,10 +119,10 @@ def paper_job(job: tuple[float, int, dict]) -> dict:
     from .paper import paper_case
     from .study import run_level
 
-    dt, level, options, threads = job
-    with using(threads):
-        case = paper_case(dt, **options)
-        record = run_level(case, refined(case.coarse_mesh(), level, case.project_refinement), level)
+    dt, level, options = job
+    case = paper_case(dt, **options)
+    with using(case.solver.threads):
+        record = run_level(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement), level)
     record["dt"] = dt
     return record
 
@@ -143,18 +143,16 @@ def paper_command(args) -> int:
     from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
     from .atomic import write_text
     from .report import convergence_plot, error_table, rate_table, write_json
-    from .solvers import solver_names
     from .study import rates, study
 
-    if args.solver not in solver_names():
-        raise UsageError(f"fsivsp paper: --solver: expected one of {', '.join(solver_names())}, got {args.solver!r}")
-    distributed_check("paper", args.solver, args.initial_velocity, "--all" if args.all else None)
-    options = paper_options(args)
+    spec = solver_spec(args, "fsivsp paper")
+    distributed_check("paper", spec.method, args.initial_velocity, "--all" if args.all else None)
+    options = paper_options(args, spec)
     scheme = options["time_scheme"]
     out = args.out or Path("paper-report" if scheme.name == "backward_euler" else f"paper-report-{scheme.name}")
     if not args.all:
         case = paper_case(args.dt, **options)
-        with using(args.threads):
+        with using(spec.threads):
             records = study(case, args.levels, quiet=args.quiet)
         for r in records:
             r["dt"] = args.dt
@@ -170,9 +168,10 @@ def paper_command(args) -> int:
             write_json(args.json, records)
         return 0
 
-    threads = args.threads or args.jobs
+    threads = spec.threads or args.jobs
     per_job = max(1, threads // args.jobs)   # the processes share the cores with their threads
-    jobs = [(dt, level, options, per_job) for dt in TIME_STEPS for level in args.levels]
+    options["solver"] = replace(spec, threads=per_job)
+    jobs = [(dt, level, options) for dt in TIME_STEPS for level in args.levels]
     jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first
     start = time.perf_counter()
     results = run_jobs(jobs, min(args.jobs, threads), args.quiet)
@@ -204,14 +203,13 @@ def paper_command(args) -> int:
 
 
 def study_command(args) -> int:
-    from .case import load_study_case, to_study
+    from .case import load_study_case
 
-    case_file = load_study_case(args.case)
-    case = to_study(case_file)
-    distributed_check("study", case.solver, case.initial_velocity)
+    case = load_study_case(args.case)
+    distributed_check("study", case.solver.method, case.discretisation.initial_velocity)
     case = replace(case, time_scheme=chosen_scheme(args, case.time_scheme),
-                   petsc_options={**case.petsc_options, **args.petsc_options})
-    with using(args.threads or case_file.discretisation.threads):
+                   solver=solver_spec(args, "fsivsp study", case.solver))
+    with using(case.solver.threads):
         return study_records(args, case)
 
 
@@ -220,7 +218,8 @@ def study_records(args, case) -> int:
     from .report import error_table, rate_table, time_table, write_json
     from .study import study, time_study
 
-    element = f"{case.family}{'' if case.family == 'mini' else case.order}"
+    disc = case.discretisation
+    element = f"{disc.family}{'' if disc.family == 'mini' else disc.order}"
     if args.dt is not None:
         records = time_study(case, args.level, args.dt, quiet=args.quiet)
         print(f"{case.name}: {element}, {case.time_scheme.name}, level {args.level}, T = {case.T:g}\n"
@@ -248,8 +247,9 @@ def run_command(args) -> int:
     previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
     try:
         out = args.out or Path(args.case.stem)
+        threads = solver_spec(args, "fsivsp run").threads   # checked before the case is read
         summary = run(args.case, out, overrides=parse_overrides(args.overrides), resume=args.resume,
-                      quiet=args.quiet, threads=args.threads, dry_run=args.dry_run, force=args.force)
+                      quiet=args.quiet, threads=threads, dry_run=args.dry_run, force=args.force)
         if summary is None:  # --dry-run
             return 0
     except (SolveDiverged, NotConverged) as error:
@@ -278,7 +278,7 @@ def matrix_command(args) -> int:
     if args.readme and not args.slow and args.readme.resolve() == (Path(__file__).parents[2] / "docs" / "verification.md").resolve():
         raise UsageError("fsivsp matrix: --readme docs/verification.md: its table has every entry, the slow ones "
                          "too; add --slow (or write elsewhere with --markdown)")
-    with using(args.threads):
+    with using(solver_spec(args, "fsivsp matrix").threads):
         return matrix_table(args)
 
 

@@ -179,7 +179,7 @@ def estimate(case) -> Estimate:
     from .solvers import solver_kind
 
     unknowns = count_unknowns(case)
-    solver = solver_kind(case.discretisation.solver, unknowns, case.dim, parallel.distributed())
+    solver = solver_kind(case.solver, unknowns, case.dim)
     return Estimate(unknowns, solver, memory_bytes(case, unknowns, solver),
                     power_law(SECONDS_PER_STEP, case.dim, solver, unknowns), case.steps, output_bytes(case, unknowns))
 

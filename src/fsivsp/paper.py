@@ -10,8 +10,8 @@ import numpy as np
 from .geometry import CHANNEL_HEIGHT, CHANNEL_WIDTH, DISK_CENTRE, DISK_RADIUS, paper_channel
 from .manufactured import ExactSolution
 from .materials import Materials
-from .solvers import TOLERANCE
-from .study import Case
+from .solvers import SolverSpec
+from .case import Case, Discretisation
 from .timeschemes import BDF2, Theta
 
 #: Exact solution (75); the displacement u = ∫ v dt + u⁰ with u⁰ = v(0), so that σ_S n = σ_F n on the circle.
@@ -24,11 +24,10 @@ T_FINAL = 1.0
 
 
 def paper_case(dt: float, initial_stress: str = "displacement", project_refinement: bool = False,
-               solver: str | None = None, initial_velocity: str = "interpolation",
-               tolerance: float = TOLERANCE, time_scheme: Theta | BDF2 = Theta(),
-               petsc_options: dict | None = None) -> Case:
+               solver: SolverSpec | None = None, initial_velocity: str = "interpolation",
+               time_scheme: Theta | BDF2 = Theta()) -> Case:
     """The experiment of Section 5.3 with MINI elements and time step ``dt`` (backward Euler, or
-    ``time_scheme``)."""
+    ``time_scheme``), solved by ``solver`` (None: the default `SolverSpec`)."""
     return Case(
         name=f"paper dt={dt:g}",
         coarse_mesh=paper_channel,
@@ -36,13 +35,10 @@ def paper_case(dt: float, initial_stress: str = "displacement", project_refineme
         exact=ExactSolution.parse(VELOCITY, PRESSURE, DISPLACEMENT, dim=2, field="paper"),
         T=T_FINAL,
         dt=dt,
-        initial_stress=initial_stress,
-        initial_velocity=initial_velocity,
-        project_refinement=project_refinement,
-        solver=solver,
-        tolerance=tolerance,
+        discretisation=Discretisation(initial_stress=initial_stress, initial_velocity=initial_velocity,
+                                      project_refinement=project_refinement),
+        solver=SolverSpec() if solver is None else solver,
         time_scheme=time_scheme,
-        petsc_options=petsc_options or {},
     )
 
 

@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 
 from . import parallel
-from .case import (CaseError, CaseFile, check_command, check_keys, read_discretisation, read_geometry, read_materials,
-                   read_time, section)
+from .case import CaseError, Case, build_mesh, check_command, check_keys, read_case, section
 from .expressions import ExpressionError, parse_vector
 from .fields import Field
-from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, build_geometry, refined
+from .inputs import is_number, is_whole
+from .geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
 from .overrides import case_document
 from .quadratic import curve
 from .stages import stage
@@ -43,10 +43,12 @@ class SolveDiverged(RuntimeError):
     """The discrete solution stopped being finite."""
 
 
-@dataclass
-class RunCase(CaseFile):
-    """A validated production case (``fsivsp run``)."""
+@dataclass(kw_only=True)
+class RunCase(Case):
+    """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
+    and refined at load), data, boundaries, output and checkpoints."""
 
+    dim: int
     data: dict[str, list]
     boundaries: dict[str, tuple[str, list]]
     output: dict[str, Any]
@@ -54,14 +56,10 @@ class RunCase(CaseFile):
     mesh: Any = field(default=None, repr=False)
     overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
 
-    @property
-    def steps(self) -> int:
-        return max(1, round(self.T / self.dt))
-
 
 def _whole(table: dict, key: str, where: str, default: int) -> int:
     value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    if not is_whole(value):
         raise CaseError(f"{where}.{key}: expected a positive whole number, got {value!r}")
     return value
 
@@ -79,7 +77,7 @@ def _points(value, field_name: str, dim: int) -> list[tuple[float, ...]]:
     points = []
     for i, point in enumerate(value):
         if (not isinstance(point, list) or len(point) != dim
-                or not all(isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c) for c in point)):
+                or not all(is_number(c) for c in point)):
             raise CaseError(f"{field_name}[{i}]: expected a point of {dim} numbers, got {point!r}")
         points.append(tuple(float(c) for c in point))
     return points
@@ -102,7 +100,7 @@ def read_output(table: dict, dim: int) -> dict[str, Any]:
         lines.append((start, end, _whole(line, "n", f"output.lines[{i}]", 20)))
     vtk, continuous = (_flag(table, key, default) for key, default in (("vtk", True), ("continuous", False)))
     subdivision = table.get("subdivision", 0)
-    if isinstance(subdivision, bool) or not isinstance(subdivision, int) or not 0 <= subdivision <= 3:
+    if not is_whole(subdivision, 0, 3):
         raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
     return {"every": _whole(table, "every", "output", 10), "probes": _points(table.get("probes", []), "output.probes", dim),
             "lines": lines, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
@@ -138,10 +136,7 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     path, doc = case_document(source, overrides)
     check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
-    geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
-    materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
-    T, dt, scheme = read_time(section(doc, "time"))
-    disc = read_discretisation(section(doc, "discretisation", required=False), section(doc, "solver", required=False))
+    fields, dim = read_case(doc, path, young_allowed=True)
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
     data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
@@ -150,16 +145,15 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    refine = geometry.get("refine", 0)
-    if isinstance(refine, bool) or not isinstance(refine, int) or not 0 <= refine <= MAX_REFINE:
+    refine = fields["geometry"].get("refine", 0)
+    if not is_whole(refine, 0, MAX_REFINE):
         raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
-    params = {k: v for k, v in geometry.items() if k not in ("kind", "dim", "maxh", "refine")}
-    mesh = build_geometry(geometry["kind"], dim, geometry.get("maxh"), **params)
+    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
     if refine:
-        mesh = refined(mesh, refine, disc.curved)
+        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
     check_boundaries(boundaries, mesh)
-    return RunCase(path, geometry, dim, materials, T, dt, scheme, disc, data, boundaries, output, every, mesh,
-                   dict(overrides or {}))
+    return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
@@ -199,8 +193,7 @@ def build_scheme(case: RunCase):
         boundary_velocity=velocity,
         boundary_traction=traction,
     )
-    return Scheme(spaces, case.materials, data, case.dt, solver=disc.solver, tolerance=disc.tolerance,
-                  max_iterations=disc.max_iterations, petsc_options=disc.petsc, time_scheme=case.time_scheme)
+    return Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
 
 
 class Terminated(KeyboardInterrupt):
@@ -271,7 +264,7 @@ def check_distributed(case: RunCase) -> None:
     """Under mpirun: what a distributed run does not do yet (docs/mpi.md) raises a one-line CaseError."""
     from .solvers import unsupported
 
-    if reason := unsupported(case.discretisation.solver, case.discretisation.initial_velocity):
+    if reason := unsupported(case.solver.method, case.discretisation.initial_velocity):
         raise CaseError(f"discretisation.{reason}")
 
 
@@ -346,7 +339,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             "dofs": {"free": spaces.free_dofs(), "velocity": spaces.velocity.ndofglobal,
                      "pressure": global_count(spaces.pressure, spaces.pressure.FreeDofs()),
                      "stress": spaces.stress.ndofglobal},
-            "solver": scheme.solver.statistics(),
+            "solver": {**scheme.solver.statistics(), "spec": case.solver.record()},
             "seconds": {"setup": setup, "solver_setup": scheme.solver.factor_seconds,
                         "total": clock.perf_counter() - started},
             "peak_memory_bytes": max(memory),

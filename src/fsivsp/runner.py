@@ -5,6 +5,7 @@
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -32,5 +33,7 @@ def run(case: str | Path | dict, out: str | Path | None = None, *, overrides: di
         check_output_folder(out)
         if before_run(loaded, out, dry_run=dry_run, force=force, quiet=quiet):
             return None
-        with using(threads or loaded.discretisation.threads):
+        if threads is not None:
+            loaded = replace(loaded, solver=replace(loaded.solver, threads=threads, where={"threads": "fsivsp run: --threads"}))
+        with using(loaded.solver.threads):
             return run_case(loaded, out, resume=resume, quiet=quiet)

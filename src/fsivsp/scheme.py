@@ -26,7 +26,7 @@ from .initial import initial_multiplier, initial_state, project_offset
 from .loads import Loads
 from .marching import march
 from .materials import Materials
-from .solvers import MAX_ITERATIONS, TOLERANCE, SolverError, compact, step_solver
+from .solvers import SolverError, SolverSpec, compact, step_solver
 from .spaces import Spaces
 from .stages import stage
 from .timeschemes import BDF2, Theta
@@ -56,11 +56,9 @@ class Scheme:
     solution (vⁿ, mⁿ) with the multiplier mⁿ (``solution``), from which pⁿ is formed."""
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
-                 solver: str | None = None, tolerance: float = TOLERANCE,
-                 max_iterations: int = MAX_ITERATIONS, time_scheme: Theta | BDF2 = Theta(),
-                 petsc_options: dict | None = None):
-        """``solver``: a name `solvers.step_solver` accepts (None: ``"auto"``); ``tolerance`` and
-        ``max_iterations`` are the iterative solvers'; ``petsc_options`` the PETSc solver's (`solvers.petsc`); ``time_scheme``: `timeschemes.time_scheme`."""
+                 solver: SolverSpec | None = None, time_scheme: Theta | BDF2 = Theta()):
+        """``solver``: the `SolverSpec` of step 1 (None: the default spec), passed to `solvers.step_solver`;
+        ``time_scheme``: `timeschemes.time_scheme`."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
@@ -72,8 +70,7 @@ class Scheme:
             self._matrix = compact(step.mat)
             del step
         with stage("solver") as label:
-            self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver, tolerance, max_iterations,
-                                      petsc_options)
+            self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver)
             label[0] = solver_stage(self.solver)
         self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
         self._lagged_coefficients = time_scheme.lagged(dt)

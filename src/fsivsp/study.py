@@ -3,14 +3,14 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import dataclass, field, replace
-from typing import Callable
+from dataclasses import replace
 
 import ngsolve as ngs
 import numpy as np
 from .progress import tqdm
 
 from . import parallel
+from .case import Case
 from .fields import Field
 from .geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, refined, region_counts
 from .manufactured import ExactSolution
@@ -20,37 +20,7 @@ from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_moti
 from .quadratic import curve
 from .data import INITIAL_STRESS, Data
 from .scheme import Scheme
-from .solvers import MAX_ITERATIONS, TOLERANCE
 from .spaces import Spaces, base_order, build_spaces
-from .timeschemes import BDF2, Theta
-
-
-@dataclass
-class Case:
-    """A manufactured-solution problem: geometry, materials, exact solution, discretisation."""
-
-    name: str
-    coarse_mesh: Callable[[], ngs.Mesh]
-    materials: Materials
-    exact: ExactSolution
-    T: float
-    dt: float
-    family: str = "mini"
-    order: int = 1
-    initial_stress: str = "displacement"
-    initial_velocity: str = "interpolation"
-    project_refinement: bool = True
-    solver: str | None = None
-    curved: bool = False
-    tolerance: float = TOLERANCE
-    max_iterations: int = MAX_ITERATIONS
-    #: PETSc options of ``solver = "petsc"`` (`solvers.petsc`), without the ``fsivsp_`` prefix
-    petsc_options: dict = field(default_factory=dict)
-    time_scheme: Theta | BDF2 = Theta()
-
-    @property
-    def steps(self) -> int:
-        return max(1, round(self.T / self.dt))
 
 
 def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
@@ -118,14 +88,13 @@ def paper_dofs(counts: dict[str, int]) -> int:
 def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
     check_regions(mesh)
-    if case.curved:
-        curve(mesh, base_order(case.family, case.order))
-    spaces = build_spaces(mesh, case.family, case.order, dirichlet_boundaries(mesh))
-    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), case.initial_stress,
-                             case.initial_velocity)
-    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, tolerance=case.tolerance,
-                    max_iterations=case.max_iterations, petsc_options=case.petsc_options,
-                    time_scheme=case.time_scheme)
+    disc = case.discretisation
+    if disc.curved:
+        curve(mesh, base_order(disc.family, disc.order))
+    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh))
+    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), disc.initial_stress,
+                             disc.initial_velocity)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
     return scheme, Errors(scheme, case.exact)
 
 
@@ -203,7 +172,7 @@ def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
     coarse = parallel.on_root(case.coarse_mesh)
     records = []
     for level in tqdm(levels, desc=case.name, disable=quiet, unit="level"):
-        mesh = parallel.on_root(refined, coarse, level, case.project_refinement)
+        mesh = parallel.on_root(refined, coarse, level, case.discretisation.project_refinement)
         records.append(run_level(case, mesh, level, quiet))
     rates(records, parallel.shared(lambda: coarse.dim))
     return records
@@ -234,7 +203,7 @@ def check_time_steps(steps: list[float]) -> list[float]:
 def time_study(case: Case, level: int, steps: list[float], quiet: bool = True) -> list[dict]:
     """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing)."""
     check_time_steps(steps)
-    mesh = refined(case.coarse_mesh(), level, project=case.project_refinement)
+    mesh = refined(case.coarse_mesh(), level, project=case.discretisation.project_refinement)
     records = []
     for dt in tqdm(steps, desc=case.name, disable=quiet, unit="dt"):
         record = run_level(replace(case, dt=dt), mesh, level, quiet)

@@ -19,6 +19,8 @@ from typing import Iterator
 
 import ngsolve as ngs
 
+from .inputs import is_whole
+
 #: What MPI launchers set to the number of ranks on this node (Open MPI, MPICH/Hydra).
 LOCAL_SIZE_VARIABLES = ("OMPI_COMM_WORLD_LOCAL_SIZE", "MPI_LOCALNRANKS")
 #: The environment's thread count for runs that do not give one (several runs sharing a machine, a batch
@@ -46,10 +48,10 @@ class ThreadsError(ValueError):
 
 def check(value, where: str) -> int:
     """``value`` as a thread count (a whole number ≥ 1), else `ThreadsError` naming ``where``."""
-    if isinstance(value, bool) or not (isinstance(value, int) or (isinstance(value, str) and value.strip().isdigit())) \
-            or int(value) < 1:
+    count = int(value) if isinstance(value, str) and value.strip().isdigit() else value
+    if not is_whole(count):
         raise ThreadsError(f"{where}: expected a positive whole number of threads, got {value!r}")
-    return int(value)
+    return count
 
 
 def current() -> int:

@@ -123,13 +123,12 @@ TIME_TABLE = [TimeEntry(scheme, 2, configuration) for configuration in CONFIGURA
 
 def run_time(entry: TimeEntry, examples: Path = EXAMPLES) -> tuple[dict[str, float], list[dict]]:
     """The rates in Δt of the last pair of time steps (θ = 1/2 for "theta") and the per-Δt records."""
-    from .case import load_study_case, to_study
+    from .case import load_study_case
     from .study import time_study
     from .timeschemes import time_scheme
 
-    case_file = load_study_case(examples / f"time_convergence_{entry.dim}d.toml")
-    case_file.geometry["kind"] = entry.configuration
-    case = dataclasses.replace(to_study(case_file), time_scheme=time_scheme(entry.scheme))
+    case = load_study_case(examples / f"time_convergence_{entry.dim}d.toml", {"geometry.kind": entry.configuration})
+    case = dataclasses.replace(case, time_scheme=time_scheme(entry.scheme))
     records = time_study(case, 0, list(TIME_STEPS))
     return records[-1]["rates"], records
 
@@ -161,14 +160,11 @@ def fitted_rates(records: list[dict], dim: int) -> dict[str, float]:
 
 def run(entry: Entry, levels: range | None = None, examples: Path = EXAMPLES) -> tuple[dict[str, float], list[dict]]:
     """Fitted rates and the per-level records of one entry."""
-    from .case import load_study_case, to_study
+    from .case import load_study_case
     from .study import study
 
-    case_file = load_study_case(examples / entry.example)
-    if entry.curved:
-        case_file.geometry["curvature_safety"] = CURVED_SAFETY
-        case_file.discretisation.curved = True
-    case = dataclasses.replace(to_study(case_file), family=entry.family, order=entry.order)
+    curved = {"geometry.curvature_safety": CURVED_SAFETY, "discretisation.curved": True} if entry.curved else None
+    case = load_study_case(examples / entry.example, curved).with_discretisation(family=entry.family, order=entry.order)
     records = study(case, entry.levels if levels is None else levels)
     return fitted_rates(records, entry.dim), records
 

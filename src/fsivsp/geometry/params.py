@@ -2,11 +2,10 @@
 one-line `GeometryError` naming the field."""
 from __future__ import annotations
 
-import math
-from numbers import Real
 from pathlib import Path
 from typing import Any, Sequence
 
+from ..inputs import is_number, is_whole
 from .regions import GeometryError
 
 MESH_SUFFIXES = (".msh", ".vol", ".vol.gz")
@@ -18,13 +17,13 @@ def fail(field: str, expected: str, got: Any) -> GeometryError:
 
 
 def dimension(kind: str, dim: Any, dims: Sequence[int] = (2, 3)) -> int:
-    if isinstance(dim, bool) or not isinstance(dim, int) or dim not in dims:
+    if not is_whole(dim, None) or dim not in dims:
         raise fail("dim", " or ".join(map(str, dims)) + f" for kind '{kind}'", dim)
     return dim
 
 
 def positive(field: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value) or value <= 0:
+    if not is_number(value) or value <= 0:
         raise fail(field, "a positive number", value)
     return float(value)
 
@@ -34,8 +33,7 @@ def point_parameter(field: str, value: Any, dim: int) -> tuple[float, ...]:
         point = tuple(value)
     except TypeError:
         raise fail(field, f"a sequence of {dim} numbers", value) from None
-    if len(point) != dim or not all(isinstance(c, Real) and not isinstance(c, bool) and math.isfinite(c)
-                                    for c in point):
+    if len(point) != dim or not all(is_number(c) for c in point):
         raise fail(field, f"a sequence of {dim} numbers", value)
     return tuple(float(c) for c in point)
 

@@ -6,12 +6,13 @@
 - `petsc`: PETSc's FGMRES with a fieldsplit preconditioner (BoomerAMG on the velocity, the least-squares
   commutator on the pressure; `PETScSolver`), options from the case file's ``[solver.petsc]``;
 - `distributed`: the same MinRes with a preconditioner NGSolve runs over MPI ranks (`DistributedSolver`),
-  taken for every name in `DISTRIBUTED_SOLVERS` when the mesh is distributed (``mpirun``).
+  taken for every name in `DISTRIBUTED_SOLVERS` when the run is distributed (``mpirun``: `SolverSpec.distributed`).
 
-`step_solver` picks one by name: ``"auto"`` (the default, `auto_solver`) takes the direct solver below
-`AUTO_ITERATIVE_DOFS` free unknowns (per dimension) and PETSc's above and under mpirun (the NGSolve-native
-iterative solver where petsc4py does not import); ``"direct"`` the fastest safe direct method (MUMPS under
-mpirun); ``"iterative"``; ``"petsc"``; or a direct method by name (`METHODS`).
+`step_solver` takes a `SolverSpec` (`spec`) and runs the backend of `BACKENDS` that `solver_kind` names:
+``"auto"`` (the default, `auto_solver`) takes the direct solver below `AUTO_ITERATIVE_DOFS` free unknowns (per
+dimension) and PETSc's above and under mpirun (the NGSolve-native iterative solver where petsc4py does not
+import); ``"direct"`` the fastest safe direct method (MUMPS under mpirun); ``"iterative"``; ``"petsc"``; or a
+direct method by name (`METHODS`).
 """
 from __future__ import annotations
 
@@ -23,13 +24,14 @@ from .direct import METHODS, DirectSolver, available_methods, default_method, fa
 from .sparse import SolverError, compact, free_mask, is_symmetric, to_ngsolve, to_scipy_csr
 from .distributed import DISTRIBUTED_SOLVERS, DistributedSolver, distributed_solver, unsupported
 from .iterative import MAX_ITERATIONS, TOLERANCE, IterativeSolver, NotConverged
+from .spec import SolverSpec, read_petsc_options, solver_names
 
 __all__ = [
-    "AUTO_ITERATIVE_DOFS", "DISTRIBUTED_SOLVERS", "auto_solver", "solver_kind", "METHODS", "MAX_ITERATIONS", "TOLERANCE", "DirectSolver",
-    "DistributedSolver", "IterativeSolver",
-    "NotConverged", "SolverError", "StepSolver", "available_methods", "compact", "default_method",
-    "factorise", "free_mask", "is_symmetric", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr",
-    "unsupported",
+    "AUTO_ITERATIVE_DOFS", "BACKENDS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "TOLERANCE",
+    "DirectSolver", "DistributedSolver", "IterativeSolver", "NotConverged", "SolverError", "SolverSpec",
+    "StepSolver", "auto_solver", "available_methods", "compact", "default_method", "factorise", "free_mask",
+    "is_symmetric", "read_petsc_options", "solver_kind", "solver_names", "step_solver", "to_ngsolve",
+    "to_scipy_csr", "unsupported",
 ]
 
 #: ``"auto"`` takes an iterative solver from this many free unknowns on (by dimension). Memory decides, not
@@ -69,39 +71,49 @@ class StepSolver(Protocol):
     def statistics(self) -> dict: ...
 
 
-def solver_names() -> list[str]:
-    """The names `step_solver` accepts here."""
-    return ["auto", "direct", "iterative", "petsc", *available_methods()]
+def direct_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: SolverSpec) -> StepSolver:
+    """A serial factorisation: the method named, else the fastest safe one (`factorise`)."""
+    return factorise(matrix, spaces.mixed.FreeDofs(), method=None if spec.method in ("auto", "direct") else spec.method)
 
 
-def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, name: str | None = "auto",
-                tol: float = TOLERANCE, maxiter: int = MAX_ITERATIONS,
-                petsc_options: dict | None = None) -> StepSolver:
-    """The solver ``name`` (see the module's docstring; None is ``"auto"``) for the step matrix."""
-    name = "auto" if name is None else name
-    if name not in solver_names():
-        raise ValueError(f"solver: expected one of {', '.join(solver_names())}, got {name!r}")
-    distributed = isinstance(matrix, ngs.la.ParallelMatrix)  # a distributed mesh (mpirun)
-    if distributed and name not in DISTRIBUTED_SOLVERS:
-        raise ValueError(unsupported(name, "interpolation"))
-    kind = solver_kind(name, spaces.free_dofs(), spaces.mesh.dim, distributed)
-    if kind == "petsc":
-        from .petsc import MUMPS, PETScSolver
-
-        options = {**MUMPS, **(petsc_options or {})} if name == "direct" else petsc_options
-        return PETScSolver(matrix, spaces, materials, dt, tol, maxiter, options)
-    if kind == "iterative":
-        if distributed:
-            return distributed_solver(matrix, spaces, materials, dt, "iterative", tol, maxiter)
-        return IterativeSolver(matrix, spaces, materials, dt, tol, maxiter)
-    return factorise(matrix, spaces.mixed.FreeDofs(), method=None if name in ("auto", "direct") else name)
+def iterative_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: SolverSpec) -> StepSolver:
+    """NGSolve's MinRes with the block preconditioner (`IterativeSolver`)."""
+    return IterativeSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations)
 
 
-def solver_kind(name: str, unknowns: int, dim: int, distributed: bool = False) -> str:
-    """What ``name`` runs on ``unknowns``: ``"petsc"`` (also MUMPS: ``"direct"`` under mpirun), ``"iterative"``
-    (NGSolve's MinRes; `distributed` under mpirun) or ``"direct"`` (a serial factorisation)."""
-    if name == "auto":
-        name = auto_solver(unknowns, dim, distributed)
-    if name == "petsc" or (distributed and name == "direct"):
+def petsc_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: SolverSpec) -> StepSolver:
+    """PETSc's FGMRES (`PETScSolver`); ``"direct"`` (under mpirun): its MUMPS, under the spec's options."""
+    from .petsc import MUMPS, PETScSolver
+
+    options = {**MUMPS, **spec.petsc} if spec.method == "direct" else dict(spec.petsc)
+    return PETScSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations, options)
+
+
+def distributed_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: SolverSpec) -> StepSolver:
+    """NGSolve's MinRes over MPI ranks (`distributed_solver`)."""
+    return distributed_solver(matrix, spaces, materials, dt, "iterative", spec.tolerance, spec.max_iterations)
+
+
+#: The backends by `solver_kind`: factories ``(matrix, spaces, materials, dt, spec) -> StepSolver``.
+BACKENDS = {"direct": direct_backend, "iterative": iterative_backend, "petsc": petsc_backend,
+            "distributed": distributed_backend}
+
+
+def step_solver(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: SolverSpec | None = None) -> StepSolver:
+    """The backend of ``spec`` (None: the default `SolverSpec`) for the step matrix; a serial method on a
+    distributed run raises ValueError."""
+    spec = SolverSpec() if spec is None else spec
+    if spec.distributed and spec.method not in DISTRIBUTED_SOLVERS:
+        raise ValueError(unsupported(spec.method, "interpolation"))
+    kind = solver_kind(spec, spaces.free_dofs(), spaces.mesh.dim)
+    return BACKENDS["distributed" if spec.distributed and kind == "iterative" else kind](matrix, spaces, materials,
+                                                                                         dt, spec)
+
+
+def solver_kind(spec: SolverSpec, unknowns: int, dim: int) -> str:
+    """What ``spec`` runs on ``unknowns``: ``"petsc"`` (also MUMPS: ``"direct"`` under mpirun), ``"iterative"``
+    (NGSolve's MinRes; its ``"distributed"`` backend under mpirun) or ``"direct"`` (a serial factorisation)."""
+    name = auto_solver(unknowns, dim, spec.distributed) if spec.method == "auto" else spec.method
+    if name == "petsc" or (spec.distributed and name == "direct"):
         return "petsc"
-    return "iterative" if name == "iterative" or distributed else "direct"
+    return "iterative" if name == "iterative" or spec.distributed else "direct"

@@ -1,0 +1,80 @@
+"""How step 1 (5.1) is solved: one `SolverSpec`, validated where it is built (a case file's ``[discretisation]``
+and ``[solver]``, the command line, code) and passed unchanged to `Scheme` and the backends of `step_solver`."""
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import InitVar, dataclass, field
+
+from .. import parallel
+from ..inputs import CaseError, expected, is_number, is_whole
+from .direct import available_methods
+from .iterative import MAX_ITERATIONS, TOLERANCE
+
+PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
+
+
+def solver_names() -> list[str]:
+    """The methods a `SolverSpec` takes here."""
+    return ["auto", "direct", "iterative", "petsc", *available_methods()]
+
+
+def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
+    """The ``[solver.petsc]`` table: PETSc option names (without the leading dash and the ``fsivsp_`` prefix,
+    e.g. ``ksp_monitor = true``, ``fieldsplit_velocity_pc_type = "gamg"``) to strings, numbers or booleans
+    (true: the option without a value; false: left out), as `solvers.petsc` passes them to PETSc."""
+    if not isinstance(table, Mapping):
+        raise CaseError(f"{where}: expected a table of PETSc options, got {table!r}")
+    options = {}
+    for key, value in table.items():
+        name = key.lstrip("-")
+        if not PETSC_OPTION.fullmatch(name):
+            raise expected(f"{where}.{key}", "a PETSc option name (letters, digits, _)", key)
+        if isinstance(value, bool):
+            if value:
+                options[name] = ""
+        elif isinstance(value, (str, int, float)):
+            options[name] = str(value)
+        else:
+            raise expected(f"{where}.{key}", "a string, a number or true/false", value)
+    return options
+
+
+@dataclass(frozen=True)
+class SolverSpec:
+    """The solver of a run: ``method`` (``"auto"``, ``"direct"``, ``"iterative"``, ``"petsc"`` or a direct
+    method of `solvers.direct.METHODS`), the iterative solvers' ``tolerance`` and ``max_iterations``, ``threads``
+    (None: the default of `threads.using`), PETSc's options (``petsc``, `read_petsc_options`) and whether the run is
+    ``distributed`` over MPI ranks (default: this run's, `parallel.distributed`).
+
+    Every field is checked when the spec is made (also by `dataclasses.replace`): a bad one is a `CaseError`
+    ``<where>: expected ..., got ...``, ``where`` the field's label in ``where`` (e.g. ``{"method":
+    "discretisation.solver"}``), else ``solver.<field>``."""
+
+    method: str = "auto"
+    tolerance: float = TOLERANCE
+    max_iterations: int = MAX_ITERATIONS
+    threads: int | None = None
+    petsc: Mapping[str, str] = field(default_factory=dict)
+    distributed: bool = field(default_factory=parallel.distributed)
+    where: InitVar[Mapping[str, str] | None] = None
+
+    def __post_init__(self, where: Mapping[str, str] | None) -> None:
+        def label(name: str) -> str:
+            return (where or {}).get(name, f"solver.{name}")
+
+        if self.method not in solver_names():
+            raise expected(label("method"), f"one of {', '.join(solver_names())}", self.method)
+        if not is_number(self.tolerance) or not 0 < self.tolerance < 1:
+            raise expected(label("tolerance"), "a number in (0, 1)", self.tolerance)
+        if not is_whole(self.max_iterations):
+            raise expected(label("max_iterations"), "a positive whole number", self.max_iterations)
+        if self.threads is not None and not is_whole(self.threads):
+            raise expected(label("threads"), "a positive whole number", self.threads)
+        object.__setattr__(self, "tolerance", float(self.tolerance))
+        object.__setattr__(self, "petsc", read_petsc_options(self.petsc, label("petsc")))
+
+    def record(self) -> dict:
+        """The spec for a report (summary.json)."""
+        return {"method": self.method, "tolerance": self.tolerance, "max_iterations": self.max_iterations,
+                "threads": self.threads, "options": dict(self.petsc)}
