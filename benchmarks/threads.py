@@ -1,8 +1,13 @@
 """1 against 2 threads (`fsivsp.threads.using`), one fresh process per configuration and thread count.
 
-Per configuration: the scheme's set-up (spaces, assembly, solver set-up), the step matrix's assembly alone,
-the solver's set-up (factorisation or preconditioner, its ``setup_seconds``) and the wall time per step of
-`Scheme.march`, on 1 and on 2 threads, with the ratio 1-thread / 2-thread. Prints a table and writes JSON.
+Per configuration, on 1 and on 2 threads with the ratio 1-thread / 2-thread:
+- ``assembly``: the step matrix's assembly alone (`forms.step_matrix`), timed once more after the scheme exists;
+- ``solver_setup``: the solver's set-up inside `Scheme` (factorisation or preconditioner, ``setup_seconds``);
+- ``setup``: the two together, the set-up the issue asks 1.7× of;
+- ``scheme``: the whole `Scheme` construction (assembly, loads and lifts, the initial state, the solver);
+- ``norms``: a study's error norms (`study.Errors`: Gram matrices, projections, quadrature), where measured;
+- ``step``: the wall time per step of `Scheme.march`;
+and each process's peak memory (VmHWM). Prints a table and writes JSON.
 
     python benchmarks/threads.py --json benchmarks/threads.json
     python benchmarks/threads.py --quick          # small meshes, 2 steps: checks that it runs
@@ -16,13 +21,18 @@ import subprocess
 import sys
 import time
 
-#: (name, case, level, solver): the paper's level 4 (direct) and the 3D fluid ball at level 3.
-CONFIGURATIONS = [("paper", "paper", 4, "direct"),
-                  ("ball", "examples/fluid_in_solid_3d.toml", 3, "direct"),
-                  ("ball", "examples/fluid_in_solid_3d.toml", 3, "iterative"),
-                  ("ball", "examples/fluid_in_solid_3d.toml", 3, "petsc")]
-QUICK_LEVELS = {"paper": 1, "ball": 1}
-TIMES = ("setup", "assembly", "solver_setup", "step")
+BALL = "examples/fluid_in_solid_3d.toml"
+#: (name, case, maxh of the coarse ball (None: the example's), level, solver, steps, norms): the paper's level 4
+#: (direct), the 3D fluid ball at level 3 (direct, iterative, PETSc) and on the 267 522-unknown mesh of
+#: benchmarks/scale_2m.json (maxh 0.17, level 3; iterative and PETSc, 5 steps).
+CONFIGURATIONS = [("paper", "paper", None, 4, "direct", 20, True),
+                  ("ball", BALL, None, 3, "direct", 20, True),
+                  ("ball", BALL, None, 3, "iterative", 20, False),
+                  ("ball", BALL, None, 3, "petsc", 20, False),
+                  ("ball 267k", BALL, 0.17, 3, "iterative", 5, False),
+                  ("ball 267k", BALL, 0.17, 3, "petsc", 5, False)]
+QUICK_LEVELS = {"paper": 1, "ball": 1, "ball 267k": 0}
+TIMES = ("setup", "assembly", "solver_setup", "scheme", "norms", "step")
 
 
 def _timed(fn) -> float:
@@ -31,40 +41,59 @@ def _timed(fn) -> float:
     return time.perf_counter() - start
 
 
-def measure(where: str, level: int, solver: str, threads: int, steps: int) -> dict:
+def measure(where: str, maxh: float | None, level: int, solver: str, threads: int, steps: int, norms: bool) -> dict:
     """One configuration on ``threads`` threads, in this process."""
+    import dataclasses
+
     from fsivsp import forms
     from fsivsp.case import load_study_case
-    from fsivsp.geometry import refined
+    from fsivsp.geometry import build_geometry, refined
     from fsivsp.paper import paper_case
-    from fsivsp.study import discretise
+    from fsivsp.run import peak_memory
+    from fsivsp.scheme import Scheme
+    from fsivsp.spaces import build_spaces
+    from fsivsp.study import Errors, dirichlet_boundaries, manufactured_data
     from fsivsp.threads import using
 
     with using(threads):
         case = (paper_case(1e-2) if where == "paper" else load_study_case(where)).with_solver(method=solver)
-        mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
+        if maxh is not None:
+            coarse = build_geometry("fluid_in_solid", 3, maxh, curvature_safety=1.0)
+            case = dataclasses.replace(case, coarse_mesh=lambda: coarse)
+        disc = case.discretisation
+        mesh = refined(case.coarse_mesh(), level, disc.project_refinement)
+        dirichlet = dirichlet_boundaries(mesh)
+        spaces = build_spaces(mesh, disc.family, disc.order, dirichlet)
+        data = manufactured_data(case.exact, case.materials, dirichlet, disc.initial_stress, disc.initial_velocity)
         made = {}
-        setup = _timed(lambda: made.update(scheme=discretise(case, mesh)[0]))
+        scheme_seconds = _timed(lambda: made.update(scheme=Scheme(spaces, case.materials, data, case.dt,
+                                                                  solver=case.solver, time_scheme=case.time_scheme)))
         scheme = made["scheme"]
+        norm_seconds = _timed(lambda: Errors(scheme, case.exact)) if norms else None
         assembly = _timed(lambda: forms.step_matrix(scheme.spaces, case.materials, scheme.tau).Assemble())
         step = _timed(lambda: scheme.march(steps)) / steps
-    return {"threads": threads, "unknowns": scheme.spaces.free_dofs(), "setup": setup, "assembly": assembly,
-            "solver_setup": scheme.solver.statistics().get("setup_seconds"), "step": step}
+    solver_setup = scheme.solver.statistics().get("setup_seconds")
+    return {"threads": threads, "unknowns": spaces.free_dofs(), "method": scheme.solver.method,
+            "setup": assembly + solver_setup, "assembly": assembly, "solver_setup": solver_setup,
+            "scheme": scheme_seconds, "norms": norm_seconds, "step": step,
+            "iterations": scheme.solver.statistics().get("iterations"), "peak_memory_bytes": peak_memory()}
 
 
-def in_process(where: str, level: int, solver: str, threads: int, steps: int) -> dict:
+def in_process(where: str, maxh: float | None, level: int, solver: str, threads: int, steps: int,
+               norms: bool) -> dict:
     """`measure` in a fresh process (its own NGSolve and MKL start-up)."""
-    out = subprocess.run([sys.executable, __file__, "--child", where, str(level), solver, str(threads), str(steps)],
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run([sys.executable, __file__, "--child", where, str(maxh), str(level), solver, str(threads),
+                          str(steps), str(int(norms))], capture_output=True, text=True, check=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
-def compare(name: str, where: str, level: int, solver: str, steps: int) -> dict:
+def compare(name: str, where: str, maxh: float | None, level: int, solver: str, steps: int, norms: bool) -> dict:
     """1 and 2 threads of one configuration, and the ratios."""
-    one, two = (in_process(where, level, solver, n, steps) for n in (1, 2))
+    one, two = (in_process(where, maxh, level, solver, n, steps, norms) for n in (1, 2))
     ratio = {key: one[key] / two[key] for key in TIMES if one[key] and two[key]}
-    return {"case": name, "level": level, "solver": solver, "unknowns": one["unknowns"], "steps": steps,
-            "one": one, "two": two, "ratio": ratio}
+    print(f"{name} level {level} {solver}: " + ", ".join(f"{k} {v:.2f}×" for k, v in ratio.items()), flush=True)
+    return {"case": name, "maxh": maxh, "level": level, "solver": solver, "unknowns": one["unknowns"],
+            "steps": steps, "one": one, "two": two, "ratio": ratio}
 
 
 def table(records: list[dict]) -> str:
@@ -79,23 +108,24 @@ def table(records: list[dict]) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="level 1 of each case and 2 steps")
-    parser.add_argument("--steps", type=int, default=20, help="time steps timed per run (default 20)")
+    parser.add_argument("--quick", action="store_true", help="small levels of each case and 2 steps")
+    parser.add_argument("--only", default=None, help="only the configurations whose case name starts with this")
     parser.add_argument("--json", default=None, help="write the records to this file")
-    parser.add_argument("--child", nargs=5, metavar=("CASE", "LEVEL", "SOLVER", "THREADS", "STEPS"),
-                        help=argparse.SUPPRESS)
+    parser.add_argument("--child", nargs=7, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
-        where, level, solver, threads, steps = args.child
-        print(json.dumps(measure(where, int(level), solver, int(threads), int(steps))))
+        where, maxh, level, solver, threads, steps, norms = args.child
+        print(json.dumps(measure(where, None if maxh == "None" else float(maxh), int(level), solver, int(threads),
+                                 int(steps), norms == "1")))
         return 0
-    steps = 2 if args.quick else args.steps
-    records = [compare(name, where, QUICK_LEVELS[name] if args.quick else level, solver, steps)
-               for name, where, level, solver in CONFIGURATIONS]
+    records = [compare(name, where, maxh, QUICK_LEVELS[name] if args.quick else level, solver,
+                       2 if args.quick else steps, norms)
+               for name, where, maxh, level, solver, steps, norms in CONFIGURATIONS
+               if args.only is None or name.startswith(args.only)]
     print(table(records))
     if args.json:
         with open(args.json, "w") as file:
-            json.dump({"machine": platform.node(), "records": records}, file, indent=1)
+            json.dump({"machine": platform.node(), "command": " ".join(sys.argv), "records": records}, file, indent=1)
     return 0
 
 

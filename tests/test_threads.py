@@ -146,3 +146,18 @@ def test_bad_environment_threads_is_one_line_exit_2(monkeypatch, capsys):
     assert main(["study", "examples/fluid_in_solid_3d.toml", "--levels", "0"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "FSIVSP_THREADS" in err
+
+
+def test_default_threads_take_one_for_a_small_problem(monkeypatch):
+    """A default block runs a problem below THREADS_MIN_DOFS on one thread and a larger one on its count; a count
+    that was given is kept whatever the size."""
+    from fsivsp.threads import THREADS_MIN_DOFS, current, fit, using
+
+    monkeypatch.setenv("FSIVSP_THREADS", "2")
+    with using() as count:
+        assert count == 2 and current() == 2
+        assert fit(THREADS_MIN_DOFS - 1) == 1 and current() == 1
+        assert fit(THREADS_MIN_DOFS) == 2 and current() == 2
+    with using(2):
+        assert fit(10) == 2 and current() == 2
+    assert current() == 1

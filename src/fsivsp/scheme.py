@@ -20,7 +20,7 @@ from typing import Callable
 import ngsolve as ngs
 from ngsolve import InnerProduct
 
-from . import forms
+from . import forms, threads
 from .data import Data
 from .initial import initial_multiplier, initial_state, project_offset
 from .loads import Loads
@@ -58,9 +58,11 @@ class Scheme:
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
                  solver: SolverSpec | None = None, time_scheme: Theta | BDF2 = Theta()):
         """``solver``: the `SolverSpec` of step 1 (None: the default spec), passed to `solvers.step_solver`;
-        ``time_scheme``: `timeschemes.time_scheme`."""
+        ``time_scheme``: `timeschemes.time_scheme`. A run on the default threads takes one for a small problem
+        (`threads.fit`)."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
+        threads.fit(spaces.free_dofs())
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         X, dim = spaces.mixed, spaces.mesh.dim

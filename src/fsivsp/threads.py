@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import os
 import sys
 from pathlib import Path
@@ -86,8 +87,29 @@ def _set_mkl(threads: int) -> int | None:
     return previous
 
 
-#: The TaskManagers `using` runs, innermost last (`sequential` stops and restarts the last).
-_MANAGERS: list = []
+#: A default run (no count given) of fewer free unknowns per rank than this runs on one thread (`fit`): below it
+#: the products of a step are too short to share (the paper's level 3, 18 000 unknowns: see docs/solvers.md,
+#: "Threads"), and on a loaded machine each of them waits for a scheduler tick until the other thread gets a core
+#: (the paper's level 1: 0.4 ms a step on one thread, 312 ms on two beside the test suite).
+THREADS_MIN_DOFS = 50_000
+
+
+@dataclasses.dataclass
+class _Block:
+    """A `using` block: its thread ``count``, whether it was the default (``auto``: `fit` may run it on one
+    thread) and its running TaskManager (None: stopped, or one thread)."""
+
+    count: int
+    auto: bool
+    manager: object = None
+
+
+#: The `using` blocks, innermost last.
+_BLOCKS: list[_Block] = []
+
+
+def _running() -> bool:
+    return bool(_BLOCKS) and _BLOCKS[-1].manager is not None
 
 
 def _started():
@@ -97,6 +119,32 @@ def _started():
     return manager
 
 
+def _run_on(block: _Block, threads: int) -> None:
+    """Run ``block`` on ``threads`` threads from now on: NGSolve's count and TaskManager, MKL's count."""
+    if block.manager is not None and threads == 1:
+        block.manager.__exit__(None, None, None)
+        block.manager = None
+    ngs.SetNumThreads(threads)
+    _set_mkl(threads)
+    if block.manager is None and threads > 1:
+        block.manager = _started()
+
+
+def fit(unknowns: int) -> int:
+    """The threads for a problem of ``unknowns`` free unknowns (all ranks'), set for the rest of the `using` block:
+    in a default block one below `THREADS_MIN_DOFS` per rank, else the block's count; a count that was given is
+    kept. Called by `Scheme` when it is made (a study's levels each in turn). Returns the count now in use."""
+    if not _BLOCKS:
+        return current()
+    block = _BLOCKS[-1]
+    from . import parallel
+
+    wanted = 1 if block.auto and unknowns < THREADS_MIN_DOFS * max(parallel.size(), 1) else block.count
+    if wanted != current():
+        _run_on(block, wanted)
+    return wanted
+
+
 @contextlib.contextmanager
 def sequential() -> Iterator[None]:
     """Run the block without NGSolve's TaskManager, on the calling thread alone (the one `using` runs is
@@ -104,14 +152,16 @@ def sequential() -> Iterator[None]:
     update), in parallel with locks under the TaskManager, so that the colouring, and with it the order in which
     assembly adds the element matrices, varied from one space and process to the next (1 ulp in some entries).
     Spaces made here are coloured the same in every process; assembly over them may still thread."""
-    if not _MANAGERS:
+    if not _running():
         yield
         return
-    _MANAGERS.pop().__exit__(None, None, None)
+    block = _BLOCKS[-1]
+    block.manager.__exit__(None, None, None)
+    block.manager = None
     try:
         yield
     finally:
-        _MANAGERS.append(_started())
+        block.manager = _started()
 
 
 @contextlib.contextmanager
@@ -119,7 +169,7 @@ def idle() -> Iterator[None]:
     """Put the TaskManager's workers to sleep for a block the calling thread runs alone (PETSc's solve): running,
     they wait for work on the other cores and take them from the code that has work (one thread's sort of 20 000
     numbers 200 times, 2 threads, load 2: 38 ms without a TaskManager, 50 under it, 44 suspended)."""
-    if not _MANAGERS:
+    if not _running():
         yield
         return
     from pyngcore import SuspendTaskManager
@@ -132,7 +182,7 @@ def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
     added in an order that varies from call to call (1 ulp: 2 values in 30 calls on the paper's level 2), so
     there the cells' integrals are computed in parallel (``element_wise``) and added by numpy in their order; on
     one thread NGSolve's sum as before. On a distributed mesh the ranks' sums are added (``comm.Sum``)."""
-    if not _MANAGERS:
+    if not _running():
         return ngs.Integrate(cf, mesh, **kwargs)
     import numpy as np
     local = float(np.sum(ngs.Integrate(cf, mesh, element_wise=True, **kwargs).NumPy()))
@@ -141,19 +191,19 @@ def integrate(cf, mesh: ngs.Mesh, **kwargs) -> float:
 
 @contextlib.contextmanager
 def using(threads: int | None = None) -> Iterator[int]:
-    """Run the block with ``threads`` threads of this node (None: `default_threads`; under mpirun each rank takes
-    its share, `per_rank`): NGSolve's TaskManager (not entered for 1 thread: the sequential code) and MKL's.
-    Yields the count; restores the previous counts on leaving."""
+    """Run the block with ``threads`` threads of this node (None: `default_threads`, and one thread for a small
+    problem, `fit`; under mpirun each rank takes its share, `per_rank`): NGSolve's TaskManager (not entered for 1
+    thread: the sequential code) and MKL's. Yields the count; restores the previous counts on leaving."""
     count = default_threads() if threads is None else per_rank(check(threads, "threads"))
     before, mkl_before = current(), _set_mkl(count)
-    ngs.SetNumThreads(count)
-    if count > 1:
-        _MANAGERS.append(_started())
+    block = _Block(count, auto=threads is None)
+    _BLOCKS.append(block)
+    _run_on(block, count)
     try:
         yield count
     finally:
-        if count > 1:
-            _MANAGERS.pop().__exit__(None, None, None)
+        _run_on(block, 1)
+        _BLOCKS.pop()
         ngs.SetNumThreads(before)
         if mkl_before is not None:
             _set_mkl(mkl_before)
