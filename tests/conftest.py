@@ -43,3 +43,24 @@ def tiny_disk(tmp_path):
         pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
     yield disk
     subprocess.run(["umount", str(disk)], check=False)
+
+
+#: Tests that keep both cores busy: mpirun with 2–3 ranks (test_mpi.py, and test_run_options.py's), 2 NGSolve threads
+#: (test_threads.py), `paper --jobs 2`. Under `pytest -n 2 --dist loadgroup` (pyproject's addopts) they run one after
+#: another on one worker, never two of them at once, which on a 2-core machine would oversubscribe it.
+TWO_CORES = {"test_mpi.py": "", "test_threads.py": "", "test_run_options.py": "test_set_and_stages_on_two_ranks",
+             "test_faults.py": "test_ctrl_c_in_paper_all"}
+
+
+#: The slow tests' hang guard in place of pyproject's `timeout` (600 s): the longest, MINI in the fluid ball on
+#: levels 3–5, runs 1 h 30 min.
+SLOW_TIMEOUT = 4 * 3600
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if item.get_closest_marker("slow") and not item.get_closest_marker("timeout"):
+            item.add_marker(pytest.mark.timeout(SLOW_TIMEOUT))
+        prefix = TWO_CORES.get(item.path.name)
+        if prefix is not None and item.name.startswith(prefix):
+            item.add_marker(pytest.mark.xdist_group("two_cores"))
