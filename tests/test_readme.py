@@ -134,15 +134,10 @@ def ran(tmp_path_factory):
     return run_once
 
 
-def _cheap(command: str):
-    """A command of `test_cheap_commands_run`; one that another one resumes shares its xdist worker (and its run)."""
-    resumed = command.endswith(" --resume") or f"{command} --resume" in COMMANDS
-    return pytest.param(command, marks=[pytest.mark.xdist_group("readme-resume")] if resumed else [])
-
-
-@pytest.mark.parametrize("command", [_cheap(c) for c in COMMANDS if COMMANDS[c] == RUN])
+@pytest.mark.parametrize("command", [c for c in COMMANDS if COMMANDS[c] == RUN])
 def test_cheap_commands_run(command, ran):
-    """Each in a fresh folder, but a ``--resume`` continues in the folder where its command ran without it."""
+    """Each in a fresh folder, but a ``--resume`` continues in the folder where its command ran without it (under
+    xdist on the same worker: tests/conftest.py, GROUPS)."""
     if not command.endswith(" --resume"):
         ran(command)
         return
