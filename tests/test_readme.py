@@ -164,7 +164,7 @@ def test_relative_links_exist(page):
 
 def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkeypatch, capsys):
     """``fsivsp matrix --slow --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix
-and one row of the time table)."""
+    and one row of the time table)."""
     import fsivsp.verification
     from fsivsp.cli import main
 
