@@ -9,7 +9,7 @@ from fsivsp.cli import main
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "fsivsp.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([sys.executable, "-m", "fsivsp.cli", *args], capture_output=True, text=True)
 
 
 def test_paper_prints_tables_and_writes_json(tmp_path):

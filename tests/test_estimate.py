@@ -24,7 +24,7 @@ def peak_of_run(case: Path, out: Path) -> int:
     """ru_maxrss of ``fsivsp run case`` in a child of /usr/bin/time (whose own child starts small: a child of
     this large process would report this process's peak, BENCHMARKS.md "Time schemes"), in bytes."""
     done = subprocess.run([TIME, "-f", "%M", sys.executable, "-m", "fsivsp.cli", "run", str(case), "--out", str(out),
-                           "--quiet", "--force"], capture_output=True, text=True, timeout=120)
+                           "--quiet", "--force"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     return int(done.stderr.split()[-1]) * 1024
 

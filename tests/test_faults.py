@@ -79,17 +79,39 @@ def test_ctrl_c_in_study_and_paper_is_one_line(monkeypatch, capsys, command):
     assert capsys.readouterr().err.strip().splitlines() == ["interrupted"]
 
 
+def _signal_mask(pid: int, field: str) -> int:
+    """``field`` (SigIgn, SigCgt) of /proc/pid/status as a bit mask (bit n − 1 for signal n); 0 once it has gone."""
+    try:
+        lines = Path(f"/proc/{pid}/status").read_text().splitlines()
+    except (FileNotFoundError, ProcessLookupError):
+        return 0
+    return next(int(line.split()[1], 16) for line in lines if line.startswith(f"{field}:"))
+
+
+def catches_sigint(pid: int) -> bool:
+    return bool(_signal_mask(pid, "SigCgt") >> (signal.SIGINT - 1) & 1)
+
+
+def ignores_sigint(pid: int) -> bool:
+    return bool(_signal_mask(pid, "SigIgn") >> (signal.SIGINT - 1) & 1)
+
+
+def children(pid: int) -> list[int]:
+    return [int(child) for child in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+
+
 def test_ctrl_c_in_paper_all_stops_its_workers_without_a_traceback(tmp_path):
     """Ctrl-C reaches the terminal's whole process group: the workers ignore it, the parent ends them."""
     paper = subprocess.Popen([sys.executable, "-m", "fsivsp.cli", "paper", "--all", "--levels", "0-1", "--jobs", "2",
                               "--quiet", "--out", str(tmp_path)], stderr=subprocess.PIPE, text=True,
                              start_new_session=True, env={**os.environ, "PYTHONPATH": str(ROOT / "src")})
-    children = Path(f"/proc/{paper.pid}/task/{paper.pid}/children")
-    while paper.poll() is None and len(children.read_text().split()) < 2:
-        time.sleep(0.1)
-    time.sleep(2)   # the workers are importing or running their first job
+    # Not after a sleep: once the pool is made, the parent catches SIGINT again and its workers ignore it (the
+    # spawned processes inherit SIG_IGN), which /proc shows; then the signal cannot race their start.
+    while not (catches_sigint(paper.pid) and sum(ignores_sigint(child) for child in children(paper.pid)) >= 2):
+        assert paper.poll() is None, paper.communicate()
+        time.sleep(0.05)
     os.killpg(paper.pid, signal.SIGINT)
-    assert paper.wait(timeout=30) == 130
+    assert paper.wait() == 130
     assert paper.stderr.read().strip().splitlines() == ["interrupted"]
 
 

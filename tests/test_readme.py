@@ -72,8 +72,7 @@ PYTHON_BLOCKS = blocks("python")
 
 @pytest.mark.parametrize("page, code", PYTHON_BLOCKS, ids=[f"{page}-{i}" for i, (page, _) in enumerate(PYTHON_BLOCKS)])
 def test_python_examples_run(page, code, workdir):
-    result = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=ENV, capture_output=True, text=True,
-                            timeout=60)
+    result = subprocess.run([sys.executable, "-c", code], cwd=workdir, env=ENV, capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     lines = code.splitlines()
     expected = [after.removeprefix("# ") for before, after in zip(lines, lines[1:])
@@ -117,14 +116,35 @@ def test_long_commands_parse(command):
             assert (ROOT / getattr(args, name)).is_file(), f"{command}: no file {getattr(args, name)}"
 
 
+@pytest.fixture(scope="module")
+def ran(tmp_path_factory):
+    """``ran(line)``: the folder (linking the examples) where ``line`` has run, once a module, with exit 0."""
+    folders: dict[str, Path] = {}
+
+    def run_once(line: str) -> Path:
+        if line not in folders:
+            folder = tmp_path_factory.mktemp("readme")
+            (folder / "examples").symlink_to(ROOT / "examples")
+            result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *shlex.split(line)[1:], "--quiet"],
+                                    cwd=folder, env=ENV, capture_output=True, text=True)
+            assert result.returncode == 0, f"{line}: {result.stderr}"
+            folders[line] = folder
+        return folders[line]
+
+    return run_once
+
+
 @pytest.mark.parametrize("command", [c for c in COMMANDS if COMMANDS[c] == RUN])
-def test_cheap_commands_run(command, workdir):
-    """Each in a fresh folder; a ``--resume`` first runs its command without it."""
-    chain = [command.removesuffix(" --resume"), command] if command.endswith(" --resume") else [command]
-    for line in chain:
-        result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *shlex.split(line)[1:], "--quiet"],
-                                cwd=workdir, env=ENV, capture_output=True, text=True, timeout=60)
-        assert result.returncode == 0, f"{line}: {result.stderr}"
+def test_cheap_commands_run(command, ran):
+    """Each in a fresh folder, but a ``--resume`` continues in the folder where its command ran without it (under
+    xdist on the same worker: tests/conftest.py, GROUPS)."""
+    if not command.endswith(" --resume"):
+        ran(command)
+        return
+    folder = ran(command.removesuffix(" --resume"))
+    result = subprocess.run([sys.executable, "-m", "fsivsp.cli", *shlex.split(command)[1:], "--quiet"],
+                            cwd=folder, env=ENV, capture_output=True, text=True)
+    assert result.returncode == 0, f"{command}: {result.stderr}"
 
 
 def test_console_example_is_what_the_cli_prints():
@@ -143,7 +163,8 @@ def test_relative_links_exist(page):
 
 
 def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkeypatch, capsys):
-    """``fsivsp matrix --slow --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix)."""
+    """``fsivsp matrix --slow --readme docs/verification.md`` replaces the table and nothing else (here an empty matrix
+    and one row of the time table)."""
     import fsivsp.verification
     from fsivsp.cli import main
 
@@ -151,6 +172,7 @@ def test_matrix_writes_between_the_markers_of_docs_verification(tmp_path, monkey
     text = (ROOT / "docs" / "verification.md").read_text()
     page.write_text(text)
     monkeypatch.setattr(fsivsp.verification, "TABLE", [])
+    monkeypatch.setattr(fsivsp.verification, "TIME_TABLE", fsivsp.verification.TIME_TABLE[:1])  # one row, 1–2 s
     assert main(["matrix", "--quiet", "--readme", str(page)]) == 0
     head, table = text.split("<!-- matrix:begin -->\n")[0], capsys.readouterr().out.strip()
     tail = text.split("<!-- matrix:end -->")[1]

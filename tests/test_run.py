@@ -95,27 +95,48 @@ def final_fields(out: Path) -> dict:
     return meshio.read(last).point_data
 
 
-def wait_for(path_glob, directory: Path, timeout=120):
-    start = time.time()
-    while time.time() - start < timeout:
-        if directory.exists() and list(directory.glob(path_glob)):
-            return
+def wait_for(path_glob, directory: Path, process: subprocess.Popen) -> None:
+    """Until ``process`` has written a file ``directory/path_glob`` (a step it reports); fails if it ends first."""
+    while not (directory.exists() and list(directory.glob(path_glob))):
+        assert process.poll() is None, process.communicate()
         time.sleep(0.05)
-    raise TimeoutError(path_glob)
+
+
+#: `fsivsp run` that reports the start of step ``argv[1]`` on stdout and waits there (for the test's SIGKILL).
+_STOPS_AT = """
+import sys
+from fsivsp.cli import main
+from fsivsp.scheme import Scheme
+step, original = int(sys.argv.pop(1)), Scheme.step
+
+def step_or_wait(self, *args, **kwargs):
+    if self.n + 1 == step:
+        print(f"at step {step}", flush=True)
+        sys.stdin.readline()
+    return original(self, *args, **kwargs)
+
+Scheme.step = step_or_wait
+sys.exit(main(sys.argv[1:]))
+"""
 
 
 def test_killed_run_resumes_to_identical_results(tmp_path):
-    case = write_case(tmp_path, T=0.02, every=20)  # 400 steps: the kill lands mid-run
+    """SIGKILL at step 47, which the run reports (no handler runs, no checkpoint of its own): the resume starts
+    from the newest periodic checkpoint, step 40, and ends as the uninterrupted run."""
+    case = write_case(tmp_path, T=0.005, every=20)  # 100 steps, checkpoints at 20, 40, ...
     reference = tmp_path / "reference"
     assert main(["run", str(case), "--out", str(reference), "--quiet"]) == 0
     out = tmp_path / "killed"
-    process = cli("run", case, "--out", out, "--quiet")
-    wait_for("checkpoint_*.npz", out / "checkpoints")  # any: older ones are pruned as the run goes on
+    process = subprocess.Popen([sys.executable, "-c", _STOPS_AT, "47", "run", str(case), "--out", str(out), "--quiet"],
+                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert process.stdout.readline() == "at step 47\n"
     process.send_signal(signal.SIGKILL)
-    process.wait()
+    assert process.wait() == -signal.SIGKILL
+    assert sorted(p.name for p in (out / "checkpoints").glob("*.npz")) == ["checkpoint_000020.npz",
+                                                                          "checkpoint_000040.npz"]
     assert main(["run", str(case), "--out", str(out), "--resume", "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["resumed_from"] is not None and 20 <= summary["resumed_from"] < 400
+    assert summary["resumed_from"] == 40 and summary["step"] == 100
     ours, theirs = final_fields(out), final_fields(reference)
     for name in theirs:
         assert np.array_equal(ours[name], theirs[name]), name
@@ -127,9 +148,9 @@ def test_ctrl_c_writes_a_checkpoint_and_stops_cleanly(tmp_path):
     case = write_case(tmp_path, T=0.2, every=1000)  # 4000 steps: interrupted long before the end
     out = tmp_path / "out"
     process = cli("run", case, "--out", out, "--quiet")
-    wait_for("fields_000010.vtu", out / "vtk")
+    wait_for("fields_000010.vtu", out / "vtk", process)
     process.send_signal(signal.SIGINT)
-    _, err = process.communicate(timeout=120)
+    _, err = process.communicate()
     assert process.returncode == 130 and "Traceback" not in err and "--resume" in err
     assert list((out / "checkpoints").glob("checkpoint_*.npz"))
     assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
