@@ -1,9 +1,14 @@
+import os
+
 import ngsolve as ngs
 import pytest
 
-# The suite's in-process runs on one NGSolve thread, fsivsp's default for runs (`fsivsp.threads.DEFAULT`), which
-# is bit-identical from run to run; the package itself sets no thread count at import (issue 24). Tests of more
-# threads enter `fsivsp.threads.using(n)` or start a process with `--threads n`.
+# In-process code outside `fsivsp.threads.using` runs on one NGSolve thread (the package sets no thread count at
+# import); runs through the CLI or `fsivsp.run` take the default threads (the cores, used where they pay:
+# `threads.fit`), tests of a given count enter `using(n)` or pass `--threads n`. Under `pytest -n N` the workers
+# share the cores: each run's default is the cores divided among the workers (FSIVSP_THREADS, at least 1).
+if (workers := os.environ.get("PYTEST_XDIST_WORKER_COUNT", "")).isdigit():
+    os.environ.setdefault("FSIVSP_THREADS", str(max(1, len(os.sched_getaffinity(0)) // int(workers))))
 ngs.SetNumThreads(1)
 
 from fsivsp import forms
