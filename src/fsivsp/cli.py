@@ -241,7 +241,8 @@ def run_command(args) -> int:
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
     from .overrides import parse_overrides
-    from .run import STOP_SIGNALS, SolveDiverged, Terminated, raise_terminated
+    from .run import SolveDiverged
+    from .stopping import STOP_SIGNALS, Terminated, raise_terminated
     from .runner import run
 
     previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
