@@ -1,6 +1,5 @@
-"""Stopping a run by a signal (SIGINT: Ctrl-C, SIGTERM: a scheduler's time limit, ``timeout``): during set-up
-at once (`raise_terminated`), in the time loop after the current step and its checkpoint (`Interrupt`); either
-way a `Terminated` with where the run stopped and its exit code."""
+"""Stopping a run by SIGINT or SIGTERM (`STOP_SIGNALS`): during set-up at once (`raise_terminated`), in the time
+loop after the current step and its checkpoint (`Interrupt`); either way a `Terminated`."""
 from __future__ import annotations
 
 import signal
