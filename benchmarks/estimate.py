@@ -52,7 +52,7 @@ def case_text(example: str, refine: int, discretisation: str, steps: int, data: 
 def measure(name: str, folder: Path) -> dict:
     """One case: the estimate (in this process) and the run's peak and output (in a child of /usr/bin/time)."""
     from fsivsp.estimate import estimate
-    from fsivsp.run import load_run_case
+    from fsivsp.runcase import load_run_case
 
     path = folder / f"{name}.toml"
     path.write_text(case_text(*CASES[name]))

@@ -168,7 +168,7 @@ def child(case_path: Path, out: Path, messages_up_to: int) -> None:
     import ngsolve as ngs
 
     from fsivsp import parallel
-    from fsivsp.run import boundary_conditions, load_run_case
+    from fsivsp.runcase import boundary_conditions, load_run_case
     from fsivsp.spaces import build_spaces, global_count
 
     case = parallel.shared_case(load_run_case, case_path)

@@ -22,7 +22,8 @@ from pathlib import Path
 import ngsolve as ngs
 
 from fsivsp.report import write_json
-from fsivsp.run import load_run_case, run_case
+from fsivsp.run import run_case
+from fsivsp.runcase import load_run_case
 from fsivsp.timeschemes import time_scheme
 from fsivsp.validation import arrival_times, read_probe_pressures
 

@@ -95,7 +95,8 @@ def paper_builder(level: int, dt: float, solver: str | None):
 
 
 def example_builder(path: Path, solver: str | None):
-    from fsivsp.run import build_scheme, load_run_case
+    from fsivsp.run import build_scheme
+    from fsivsp.runcase import load_run_case
     case = load_run_case(path)
     if solver is not None:
         case = dataclasses.replace(case, solver=dataclasses.replace(case.solver, method=solver))

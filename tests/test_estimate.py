@@ -10,7 +10,7 @@ import pytest
 
 from fsivsp import estimate
 from fsivsp.cli import main
-from fsivsp.run import load_run_case
+from fsivsp.runcase import load_run_case
 
 from test_run import CASE, write_case
 

@@ -241,7 +241,8 @@ def test_initial_data_options_reach_the_run(tmp_path, initial_stress, discrete_d
     the projected v⁰ is discretely divergence-free."""
     import ngsolve as ngs
 
-    from fsivsp.run import build_scheme, load_run_case
+    from fsivsp.run import build_scheme
+    from fsivsp.runcase import load_run_case
 
     text = CASE.format(T=0.002, every=10).replace(
         '[discretisation]\nfamily = "mini"',
@@ -298,7 +299,7 @@ def test_a_solve_that_does_not_converge_stops_with_exit_3(tmp_path, capsys):
 
 def test_refine_splits_every_cell(tmp_path):
     """``[geometry] refine = 1``: the run's mesh is the generated one refined once (4× the triangles)."""
-    from fsivsp.run import load_run_case
+    from fsivsp.runcase import load_run_case
     coarse = load_run_case(write_case(tmp_path)).mesh
     fine = load_run_case(write_case(tmp_path, text=CASE.format(T=0.002, every=10).replace(
         "maxh = 0.1", "maxh = 0.1\nrefine = 1"))).mesh

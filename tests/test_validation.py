@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fsivsp.run import load_run_case, run_case
+from fsivsp.run import run_case
+from fsivsp.runcase import load_run_case
 from fsivsp.validation import arrival_time, arrival_times, moens_korteweg, read_probe_pressures, wave_speed
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -96,7 +96,11 @@ def scheme_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--theta", type=float, default=None, help="θ of --scheme theta, in [1/2, 1] (default 0.5)")
 
 
-def threads_option(parser: argparse.ArgumentParser, default: str) -> None:
+#: The threads of a run that gives none (`threads.default_threads`), as the help texts say it.
+DEFAULT_THREADS = "FSIVSP_THREADS, else the cores this process may use"
+
+
+def threads_option(parser: argparse.ArgumentParser, default: str = DEFAULT_THREADS) -> None:
     """--threads N (the `SolverSpec`'s threads, `solver_spec`; the command enters `threads.using` when the run
     starts)."""
     parser.add_argument("--threads", type=whole_arg, default=None, metavar="N",

@@ -1,4 +1,4 @@
-"""Cases: the one `Case` type (a study case has an exact solution; `run.RunCase` adds a run's fields) and case
+"""Cases: the one `Case` type (a study case has an exact solution; `runcase.RunCase` adds a run's fields) and case
 files (TOML), every field read and validated before any heavy work.
 
 Every problem with a case file is a `CaseError` whose message is one line naming the
@@ -198,7 +198,7 @@ def read_time(table: dict) -> tuple[float, float, Theta | BDF2]:
 @dataclass
 class Case:
     """A problem: its (coarse) mesh, materials, exact solution (a study case, ``fsivsp study``; None: a run case,
-    `run.RunCase`, whose mesh is its ``mesh``), time, `Discretisation` and `SolverSpec`; from a case file also its
+    `runcase.RunCase`, whose mesh is its ``mesh``), time, `Discretisation` and `SolverSpec`; from a case file also its
     ``path`` and validated ``[geometry]`` table."""
 
     name: str
@@ -290,7 +290,7 @@ def read_exact(table: dict, dim: int) -> ExactSolution:
 
 def load_study_case(source: str | Path | dict, overrides: dict | None = None) -> Case:
     """Read and validate a case file with an [exact] section (``fsivsp study``; a dict and ``overrides`` as
-    `run.load_run_case` takes them), its coarse mesh built (which validates the geometry before any solve)."""
+    `runcase.load_run_case` takes them), its coarse mesh built (which validates the geometry before any solve)."""
     from .overrides import case_document
 
     path, doc = case_document(source, overrides)

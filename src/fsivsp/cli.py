@@ -1,7 +1,6 @@
 """The command line: `fsivsp paper`, `study`, `run` and `matrix`, a handler each (their argument types in `arguments`)."""
 from __future__ import annotations
 
-import multiprocessing
 import os
 import signal
 import sys
@@ -16,7 +15,7 @@ from .geometry import GeometryError
 from .data import INITIAL_STRESS, INITIAL_VELOCITY
 from .solvers import TOLERANCE, NotConverged
 from .threads import ThreadsError, using
-from .arguments import (Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, number_arg,
+from .arguments import (DEFAULT_THREADS, Parser, UsageError, chosen_scheme, dt_list, level_arg, levels_arg, number_arg,
                         petsc_argument, positive_float, positive_int, scheme_options, solver_spec, threads_option)
 
 def build_parser() -> Parser:
@@ -51,10 +50,10 @@ def build_parser() -> Parser:
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")
     paper.add_argument("--out", type=Path, default=None, metavar="DIR",
                        help="with --all: folder for report.md, convergence.png, results.json (default paper-report)")
-    paper.add_argument("--jobs", type=positive_int, default=os.cpu_count() or 1,
-                       help="with --all: parallel processes (default: all cores)")
+    paper.add_argument("--jobs", type=positive_int, default=len(os.sched_getaffinity(0)),
+                       help="with --all: parallel processes (default: the cores this process may use)")
     paper.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(paper, "1; with --all, shared among its --jobs")
+    threads_option(paper, f"{DEFAULT_THREADS}; with --all, one per job, a given N shared among its --jobs")
     paper.set_defaults(handler=paper_command)
 
     study = commands.add_parser("study", help="convergence study of a manufactured solution from a case file",
@@ -70,7 +69,7 @@ def build_parser() -> Parser:
                        help="write one record per level (per time step with --dt) to PATH")
     petsc_argument(study)
     study.add_argument("--quiet", action="store_true", help="no progress bars")
-    threads_option(study, "the case's [discretisation] threads, else 1")
+    threads_option(study, f"the case's [discretisation] threads, else {DEFAULT_THREADS}")
     study.set_defaults(handler=study_command)
 
     run = commands.add_parser("run", help="run a case file: ParaView series, probes, plots, checkpoints",
@@ -87,7 +86,7 @@ def build_parser() -> Parser:
     run.add_argument("--set", action="append", default=[], dest="overrides",
                      metavar="SECTION.KEY=VALUE", help="override a case-file key with a TOML value, e.g. "
                      "--set time.dt=1e-4 (validated like the file, recorded in summary.json; repeatable)")
-    threads_option(run, "the case's [discretisation] threads, else 1")
+    threads_option(run, f"the case's [discretisation] threads, else {DEFAULT_THREADS}")
     run.set_defaults(handler=run_command)
 
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
@@ -100,7 +99,7 @@ def build_parser() -> Parser:
                         help="replace the table between <!-- matrix:begin --> and <!-- matrix:end --> in PATH "
                              "(the committed table of docs/verification.md has every entry: with --slow only)")
     matrix.add_argument("--quiet", action="store_true", help="no progress bar")
-    threads_option(matrix, "1")
+    threads_option(matrix)
     matrix.set_defaults(handler=matrix_command)
     return parser
 
@@ -111,20 +110,6 @@ def paper_options(args, spec) -> dict:
 
     return {"initial_stress": args.initial_stress, "initial_velocity": args.initial_velocity,
             "project_refinement": args.project, "solver": spec, "time_scheme": chosen_scheme(args, Theta())}
-
-
-def paper_job(job: tuple[float, int, dict]) -> dict:
-    """One (Δt, level) run of the paper's experiment (a worker of ``paper --all``)."""
-    from .geometry import refined
-    from .paper import paper_case
-    from .study import run_level
-
-    dt, level, options = job
-    case = paper_case(dt, **options)
-    with using(case.solver.threads):
-        record = run_level(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement), level)
-    record["dt"] = dt
-    return record
 
 
 def distributed_check(command: str, solver: str | None, initial_velocity: str, serial_only: str | None = None) -> None:
@@ -140,10 +125,9 @@ def distributed_check(command: str, solver: str | None, initial_velocity: str, s
 
 
 def paper_command(args) -> int:
-    from .paper import TIME_STEPS, paper_case, reference_table, stress_time_floor
-    from .atomic import write_text
-    from .report import convergence_plot, error_table, rate_table, write_json
-    from .study import rates, study
+    from .paper import TIME_STEPS, paper_case, run_jobs
+    from .report import paper_report, paper_tables, write_json
+    from .study import study
 
     spec = solver_spec(args, "fsivsp paper")
     distributed_check("paper", spec.method, args.initial_velocity, "--all" if args.all else None)
@@ -156,14 +140,7 @@ def paper_command(args) -> int:
             records = study(case, args.levels, quiet=args.quiet)
         for r in records:
             r["dt"] = args.dt
-        reference = reference_table(args.dt)
-        print(f"Δt = {args.dt:g}: errors, the paper's in parentheses (Tables 1–4)")
-        print(error_table(records, reference))
-        if len(records) > 1:
-            print(f"\nΔt = {args.dt:g}: rates (76), the paper's in parentheses (Tables 5–8)")
-            print(rate_table(records, reference))
-        print(f"\nestimated backward-Euler floor of e(σ) for this Δt: {stress_time_floor(args.dt):.4f}"
-              + ("" if scheme.name == "backward_euler" else f" (this run: {scheme.name})"))
+        print(paper_tables(records, args.dt, scheme.name))
         if args.json:
             write_json(args.json, records)
         return 0
@@ -175,29 +152,7 @@ def paper_command(args) -> int:
     jobs.sort(key=lambda job: (4.0 ** job[1]) / job[0], reverse=True)  # longest first
     start = time.perf_counter()
     results = run_jobs(jobs, min(args.jobs, threads), args.quiet)
-    wall = time.perf_counter() - start
-    series, references = {}, {}
-    lines = ["# fsivsp: the experiment of Section 5.3", "",
-             f"MINI element, {scheme.label}, T = 1; initial stress from the {args.initial_stress}; "
-             f"refinement {'with' if args.project else 'without'} projection onto the circle. "
-             f"Wall time {wall:.0f} s on {args.jobs} process(es).", "",
-             "Errors with the paper's in parentheses; dofs in the paper's convention.", ""]
-    for dt in TIME_STEPS:
-        records = sorted((r for r in results if r["dt"] == dt), key=lambda r: r["level"])
-        rates(records, 2)
-        reference = reference_table(dt)
-        label = f"Δt = {dt:g}"
-        series[label], references[label] = records, reference
-        lines += [f"## {label}", "", error_table(records, reference, markdown=True), "",
-                  rate_table(records, reference, markdown=True), "",
-                  f"Estimated backward-Euler time-error floor of e(σ): {stress_time_floor(dt):.4f}.", ""]
-    lines += ["![convergence](convergence.png)", ""]
-    out.mkdir(parents=True, exist_ok=True)
-    convergence_plot(series, references, out / "convergence.png")
-    write_text(out / "report.md", "\n".join(lines))
-    all_records = [r for label in series for r in series[label]]
-    write_json(args.json or out / "results.json", all_records)
-    print("\n".join(lines))
+    print(paper_report(out, results, options, time.perf_counter() - start, args.jobs, args.json))
     print(f"\nwrote {out / 'report.md'}, {out / 'convergence.png'}")
     return 0
 
@@ -241,7 +196,8 @@ def run_command(args) -> int:
     from .atomic import WriteError
     from .checkpoint import latest_checkpoint
     from .overrides import parse_overrides
-    from .run import STOP_SIGNALS, SolveDiverged, Terminated, raise_terminated
+    from .run import SolveDiverged
+    from .stopping import STOP_SIGNALS, Terminated, raise_terminated
     from .runner import run
 
     previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
@@ -283,68 +239,23 @@ def matrix_command(args) -> int:
 
 
 def matrix_table(args) -> int:
-    """`matrix_command` under its threads: the entries, the table and its files."""
-    from .progress import tqdm
+    """`matrix_command` under its threads: the matrix (`verification.run_matrix`), its table and files."""
     from .atomic import write_text
     from .report import write_json
-    from .verification import TABLE, TIME_STEPS, TIME_TABLE, markdown, run, run_time, time_markdown, worst
+    from .verification import MARKERS, run_matrix, with_table
 
-    entries = [e for e in TABLE if args.slow or not e.slow]
-    time_entries = [e for e in TIME_TABLE if args.slow or not e.slow]
-    results, time_results, records = [], [], []
-    with tqdm(total=len(entries) + len(time_entries), disable=args.quiet, unit="entry") as bar:
-        for entry in entries:
-            rates, levels = run(entry)
-            results.append((entry, rates))
-            records.append({"entry": entry.label, "levels": list(entry.levels), "expected": entry.expected,
-                            "rates": rates, "passed": worst(rates) >= entry.expected, "records": levels})
-            bar.update(1)
-        for entry in time_entries:
-            rates, steps = run_time(entry)
-            time_results.append((entry, rates))
-            records.append({"entry": entry.label, "dt": list(TIME_STEPS), "expected": entry.order, "rates": rates,
-                            "passed": all(abs(r - entry.order) <= entry.tolerance for k, r in rates.items() if k != "total"),
-                            "records": steps})
-            bar.update(1)
-    table = markdown(results) + "\n\nRates in Δt (last pair of time steps, level 0):\n\n" + time_markdown(time_results)
+    table, records = run_matrix(args.slow, args.quiet)
     print(table)
     if args.markdown:
         write_text(args.markdown, table + "\n")
     if args.readme:
-        text = args.readme.read_text()
-        begin, end = "<!-- matrix:begin -->", "<!-- matrix:end -->"
-        if begin not in text or end not in text:
-            raise UsageError(f"fsivsp matrix: --readme: {args.readme} has no {begin} ... {end} markers")
-        head, rest = text.split(begin, 1)
-        write_text(args.readme, head + begin + "\n" + table + "\n" + end + rest.split(end, 1)[1])
+        text = with_table(args.readme.read_text(), table)
+        if text is None:
+            raise UsageError(f"fsivsp matrix: --readme: {args.readme} has no {' ... '.join(MARKERS)} markers")
+        write_text(args.readme, text)
     if args.json:
         write_json(args.json, records)
     return 0 if all(r["passed"] for r in records) else 1
-
-
-def thread_lock_bars() -> None:
-    """In a worker: tqdm's lock a thread lock (its default's semaphores are reported leaked when Ctrl-C ends it)."""
-    import threading
-
-    from tqdm import tqdm
-
-    tqdm.set_lock(threading.RLock())
-
-
-def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
-    """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
-    from .progress import tqdm
-
-    if processes == 1:
-        return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]
-    context = multiprocessing.get_context("spawn")
-    interrupt = signal.signal(signal.SIGINT, signal.SIG_IGN)  # the workers inherit it: Ctrl-C stops this process only
-    try:
-        pool = context.Pool(processes, initializer=thread_lock_bars)
-    finally:
-        signal.signal(signal.SIGINT, interrupt)
-    with pool:
-        return list(tqdm(pool.imap_unordered(paper_job, jobs), total=len(jobs), disable=quiet, unit="run"))
 
 
 def main(argv: list[str] | None = None) -> int:

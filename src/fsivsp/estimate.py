@@ -127,7 +127,7 @@ def megabytes(size: float) -> str:
 
 def count_unknowns(case) -> int:
     """The free dofs of X_h on the case's mesh (all ranks under MPI), from its spaces alone."""
-    from .run import boundary_conditions
+    from .runcase import boundary_conditions
     from .spaces import build_spaces
 
     velocity, _ = boundary_conditions(case)

@@ -1,8 +1,11 @@
-"""The numerical experiment of Section 5.3 and the paper's Tables 1–8."""
+"""The numerical experiment of Section 5.3, the paper's Tables 1–8 and its runs (``fsivsp paper --all``: in
+parallel processes, `run_jobs`)."""
 from __future__ import annotations
 
 import csv
 import math
+import multiprocessing
+import signal
 from importlib import resources
 
 import numpy as np
@@ -68,3 +71,42 @@ def stress_time_floor(dt: float) -> float:
     channel = 8 * (width**3 * height / 3 + width * height**3 / 3)
     disk = 8 * (math.pi * r**4 / 2 + 2 * c0**2 * math.pi * r**2)
     return 2 * MATERIALS.mu * c * math.sqrt(channel - disk) * math.sqrt(dt * np.sum(np.expm1(t) ** 2))
+
+
+def paper_job(job: tuple[float, int, dict]) -> dict:
+    """One (Δt, level) run of the paper's experiment (a worker of ``paper --all``)."""
+    from .geometry import refined
+    from .study import run_level
+    from .threads import using
+
+    dt, level, options = job
+    case = paper_case(dt, **options)
+    with using(case.solver.threads):
+        record = run_level(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement), level)
+    record["dt"] = dt
+    return record
+
+
+def thread_lock_bars() -> None:
+    """In a worker: tqdm's lock a thread lock (its default's semaphores are reported leaked when Ctrl-C ends it)."""
+    import threading
+
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
+
+
+def run_jobs(jobs: list, processes: int, quiet: bool) -> list[dict]:
+    """Run independent (Δt, level) jobs on ``processes`` cores, with a progress bar."""
+    from .progress import tqdm
+
+    if processes == 1:
+        return [paper_job(job) for job in tqdm(jobs, disable=quiet, unit="run")]
+    context = multiprocessing.get_context("spawn")
+    interrupt = signal.signal(signal.SIGINT, signal.SIG_IGN)  # the workers inherit it: Ctrl-C stops this process only
+    try:
+        pool = context.Pool(processes, initializer=thread_lock_bars)
+    finally:
+        signal.signal(signal.SIGINT, interrupt)
+    with pool:
+        return list(tqdm(pool.imap_unordered(paper_job, jobs), total=len(jobs), disable=quiet, unit="run"))

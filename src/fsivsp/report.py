@@ -75,6 +75,51 @@ def _layout(head: list[str], rows: list[list[str]], markdown: bool) -> str:
     return "\n".join([fmt(head)] + [fmt(row) for row in rows])
 
 
+def paper_tables(records: list[dict], dt: float, scheme: str) -> str:
+    """What ``fsivsp paper`` prints for one Δt: the errors and rates (76) with the paper's (Tables 1–8) in
+    parentheses and the estimated backward-Euler floor of e(σ) (``scheme``: the run's time scheme)."""
+    from .paper import reference_table, stress_time_floor
+
+    reference = reference_table(dt)
+    text = f"Δt = {dt:g}: errors, the paper's in parentheses (Tables 1–4)\n{error_table(records, reference)}"
+    if len(records) > 1:
+        text += f"\n\nΔt = {dt:g}: rates (76), the paper's in parentheses (Tables 5–8)\n{rate_table(records, reference)}"
+    return (text + f"\n\nestimated backward-Euler floor of e(σ) for this Δt: {stress_time_floor(dt):.4f}"
+            + ("" if scheme == "backward_euler" else f" (this run: {scheme})"))
+
+
+def paper_report(out: Path, results: list[dict], options: dict, wall: float, processes: int,
+                 json_path: Path | None = None) -> str:
+    """``fsivsp paper --all``'s report.md, convergence.png and results.json (or ``json_path``) in ``out`` from the
+    ``results`` of every Δt and level (their rates added here) run with the `paper_case` ``options`` in ``wall``
+    seconds on ``processes``; returns the report."""
+    from .paper import TIME_STEPS, reference_table, stress_time_floor
+    from .study import rates
+
+    series, references = {}, {}
+    lines = ["# fsivsp: the experiment of Section 5.3", "",
+             f"MINI element, {options['time_scheme'].label}, T = 1; initial stress from the "
+             f"{options['initial_stress']}; refinement {'with' if options['project_refinement'] else 'without'} "
+             f"projection onto the circle. Wall time {wall:.0f} s on {processes} process(es).", "",
+             "Errors with the paper's in parentheses; dofs in the paper's convention.", ""]
+    for dt in TIME_STEPS:
+        records = sorted((r for r in results if r["dt"] == dt), key=lambda r: r["level"])
+        rates(records, 2)
+        reference = reference_table(dt)
+        label = f"Δt = {dt:g}"
+        series[label], references[label] = records, reference
+        lines += [f"## {label}", "", error_table(records, reference, markdown=True), "",
+                  rate_table(records, reference, markdown=True), "",
+                  f"Estimated backward-Euler time-error floor of e(σ): {stress_time_floor(dt):.4f}.", ""]
+    lines += ["![convergence](convergence.png)", ""]
+    out.mkdir(parents=True, exist_ok=True)
+    convergence_plot(series, references, out / "convergence.png")
+    report = "\n".join(lines)
+    atomic.write_text(out / "report.md", report)
+    write_json(json_path or out / "results.json", [r for label in series for r in series[label]])
+    return report
+
+
 def write_json(path: str | Path, data) -> None:
     """``data`` as indented JSON, written atomically (`fsivsp.atomic`)."""
     atomic.write_text(path, json.dumps(data, indent=2) + "\n")

@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from . import parallel
-from .run import load_run_case, run_case  # at import, so that the name fsivsp.run stays this function
+from .run import run_case  # at import, so that the name fsivsp.run stays this function
+from .runcase import load_run_case
 from .stages import reporting, stage
 from .threads import using
 
@@ -20,9 +21,9 @@ def run(case: str | Path | dict, out: str | Path | None = None, *, overrides: di
         force: bool = False) -> dict | None:
     """Run a case file (or a case as the dict its TOML parses to) into ``out`` (default: the case file's name,
     ``case`` for a dict) and return the summary (as in summary.json). ``overrides``: {"time.dt": 1e-4, ...} as
-    ``--set``; ``threads``: default the case's [discretisation] threads, else 1. Bad input raises `CaseError`
-    (or `GeometryError`) with the one-line message of the command. Unless ``quiet``: the set-up stages on stderr
-    (`stages`) and a progress bar. Before set-up the estimate (`estimate.before_run`): ``dry_run`` prints it and
+    ``--set``; ``threads``: default the case's [discretisation] threads, else `threads.default_threads`. Bad input
+    raises `CaseError` (or `GeometryError`) with the one-line message of the command. Unless ``quiet``: the set-up
+    stages on stderr (`stages`) and a progress bar. Before set-up the estimate (`estimate.before_run`): ``dry_run`` prints it and
     returns None; a run it says does not fit raises `estimate.Refused` unless ``force``."""
     from .estimate import before_run, check_output_folder
 

@@ -184,3 +184,43 @@ def markdown(results: list[tuple[Entry, dict[str, float]]]) -> str:
 def worst(rates: dict[str, float]) -> float:
     """The smallest rate over the unknowns (the total excluded)."""
     return min(v for k, v in rates.items() if k != "total" and math.isfinite(v))
+
+
+def run_matrix(slow: bool = False, quiet: bool = False) -> tuple[str, list[dict]]:
+    """The matrix (`TABLE` and `TIME_TABLE`; their slow entries with ``slow``), with a progress bar unless ``quiet``:
+    its Markdown table and one record per entry (its rates, the expected rate, passed, the per-level or per-Δt
+    records)."""
+    from .progress import tqdm
+
+    entries = [e for e in TABLE if slow or not e.slow]
+    time_entries = [e for e in TIME_TABLE if slow or not e.slow]
+    results, time_results, records = [], [], []
+    with tqdm(total=len(entries) + len(time_entries), disable=quiet, unit="entry") as bar:
+        for entry in entries:
+            rates, levels = run(entry)
+            results.append((entry, rates))
+            records.append({"entry": entry.label, "levels": list(entry.levels), "expected": entry.expected,
+                            "rates": rates, "passed": worst(rates) >= entry.expected, "records": levels})
+            bar.update(1)
+        for entry in time_entries:
+            rates, steps = run_time(entry)
+            time_results.append((entry, rates))
+            records.append({"entry": entry.label, "dt": list(TIME_STEPS), "expected": entry.order, "rates": rates,
+                            "passed": all(abs(r - entry.order) <= entry.tolerance for k, r in rates.items() if k != "total"),
+                            "records": steps})
+            bar.update(1)
+    table = markdown(results) + "\n\nRates in Δt (last pair of time steps, level 0):\n\n" + time_markdown(time_results)
+    return table, records
+
+
+#: The lines between which a page holds the matrix's table (``fsivsp matrix --readme``).
+MARKERS = ("<!-- matrix:begin -->", "<!-- matrix:end -->")
+
+
+def with_table(text: str, table: str) -> str | None:
+    """``text`` with the part between its `MARKERS` replaced by ``table``; None if it lacks one of them."""
+    begin, end = MARKERS
+    if begin not in text or end not in text:
+        return None
+    head, rest = text.split(begin, 1)
+    return head + begin + "\n" + table + "\n" + end + rest.split(end, 1)[1]

@@ -1,0 +1,51 @@
+"""Stopping a run by SIGINT or SIGTERM (`STOP_SIGNALS`): during set-up at once (`raise_terminated`), in the time
+loop after the current step and its checkpoint (`Interrupt`); either way a `Terminated`."""
+from __future__ import annotations
+
+import signal
+
+
+class Terminated(KeyboardInterrupt):
+    """The run was stopped by ``signal`` (SIGINT: Ctrl-C, SIGTERM: a scheduler's time limit, ``timeout``):
+    ``step`` and ``time`` where it stopped, ``checkpoint`` the file written there (None: during set-up)."""
+
+    def __init__(self, signum: int, step: int | None = None, time: float | None = None, checkpoint=None):
+        super().__init__(signal.Signals(signum).name)
+        self.signum, self.step, self.time, self.checkpoint = signum, step, time, checkpoint
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+    def message(self) -> str:
+        if self.step is None:
+            return f"{'interrupted' if self.signum == signal.SIGINT else 'terminated'} during set-up: nothing written"
+        what = "interrupted" if self.signum == signal.SIGINT else "terminated"
+        return f"{what} at step {self.step} (t = {self.time:g}): checkpoint {self.checkpoint}; continue with --resume"
+
+
+def raise_terminated(signum, _frame) -> None:
+    """A signal handler for set-up: stop at once."""
+    raise Terminated(signum)
+
+
+#: The signals that stop a run: during set-up at once (`raise_terminated`), in the loop after the step (`Interrupt`).
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupt:
+    """SIGINT and SIGTERM set a flag; the time loop finishes the current step, checkpoints and stops."""
+
+    def __init__(self):
+        self.requested = 0
+
+    def __enter__(self):
+        self._previous = [signal.signal(signum, self._handle) for signum in STOP_SIGNALS]
+        return self
+
+    def _handle(self, signum, _frame):
+        self.requested = signum
+
+    def __exit__(self, *exc):
+        for signum, previous in zip(STOP_SIGNALS, self._previous):
+            signal.signal(signum, previous)
