@@ -2,12 +2,13 @@
 unknowns on with each solve overlapping the rest of the step before in a second thread."""
 from __future__ import annotations
 
+import contextlib
 from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING, Callable
 
 import ngsolve as ngs
 
-from .threads import current as current_threads
+from .threads import current as current_threads, sequential
 
 if TYPE_CHECKING:
     from .scheme import Scheme
@@ -28,19 +29,25 @@ def march(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | None =
     thread) and the part of the next right-hand side without vⁿ⁺¹ (`Scheme.lagged_right_hand_side`).
     Between two solves only the product R vⁿ⁺¹ is left. ``observe`` must not step
     the scheme. The results equal `Scheme.step` repeated up to round-off (7e-14 relative after 100 steps of the
-    paper's experiment, level 4). Only on one thread (`threads.using`): under NGSolve's TaskManager the two
-    threads compete for its workers and `step` is faster (100 steps at 17 931 unknowns: 0.33 s against
-    0.43 s). A start step with another τ (BDF2's first) is taken by `step`."""
+    paper's experiment, level 4). On more threads (`threads.using`) a solver whose solve runs under NGSolve's
+    TaskManager (``threaded``: the NGSolve-native iterative one) steps with it and no second thread, which
+    would compete for its workers (100 steps at 17 931 unknowns: 0.33 s against 0.43 s); one whose solve does
+    not (PARDISO, PETSc) overlaps with the TaskManager stopped, so that the second core works beside the solve
+    (the 3D ball's level 3, docs/solvers.md, "Threads"). A start step with another τ (BDF2's first) is taken by
+    `step`."""
     while steps > 0 and scheme.time_scheme.start(scheme.n).tau(scheme.dt) != scheme.tau:
         _step(scheme, observe)
         steps -= 1
     if steps <= 0:
         return
-    if not scheme.solver.overlap or scheme.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS or current_threads() > 1:
+    threaded = current_threads() > 1
+    if (not scheme.solver.overlap or scheme.spaces.free_dofs() < MARCH_THREAD_MIN_DOFS
+            or (threaded and scheme.solver.threaded)):
         for _ in range(steps):
             _step(scheme, observe)
         return
-    _overlapped(scheme, steps, observe)
+    with sequential() if threaded else contextlib.nullcontext():
+        _overlapped(scheme, steps, observe)
 
 
 def _step(scheme: Scheme, observe: Callable[[Scheme], None] | None) -> None:

@@ -57,11 +57,13 @@ def auto_solver(unknowns: int, dim: int, distributed: bool = False) -> str:
 class StepSolver(Protocol):
     """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: the previous
     step's solution, a start for an iterative method) and a record for reports; ``overlap``: whether a solve
-    may run concurrently with other work of the scheme (not when it communicates between MPI ranks)."""
+    may run concurrently with other work of the scheme (not when it communicates between MPI ranks); ``threaded``:
+    whether its solve runs under NGSolve's TaskManager (`marching.march`)."""
 
     method: str
     factor_seconds: float
     overlap: bool
+    threaded: bool
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
                    guess: ngs.BaseVector | None = None) -> None: ...

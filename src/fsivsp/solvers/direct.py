@@ -49,7 +49,6 @@ import ngsolve as ngs
 from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
-from ..threads import current as current_threads
 from .mumps import MumpsInverse
 from .sparse import SolverError, _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
 
@@ -82,11 +81,6 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: entries and solve time on level 4. ``refinement = 0``: MKL refines only if pivots were perturbed. Minimum
 #: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
 PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": "auto"}
-
-#: PARDISO's conditional numerical reproducibility (iparm[33]), on more than one thread: the factorisation on
-#: this many OpenMP threads (the run's, which the binding gives MKL) in a fixed order, the same factors from one
-#: process to the next. Not on one thread, whose factors stay those of before (CNR changes them at round-off).
-CNR_THREADS = "iparm33"
 
 #: The inverse type `MatchingPardiso` is registered under with NGSolve.
 PARDISO_INVERSE = "fsivsp_pardiso"
@@ -306,6 +300,8 @@ class DirectSolver:
 
     #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
     overlap = True
+    #: Its solve does not run under NGSolve's TaskManager (`marching.march`).
+    threaded = False
 
     def __init__(self, matrix, freedofs: ngs.BitArray | None = None, method: str | None = None, check: bool = True,
                  rtol: float = 1e-8, options: Mapping[str, Any] | None = None, refinement: int = 0):
@@ -341,8 +337,6 @@ class DirectSolver:
         if method == "pardiso":
             opts.update(PARDISO_FLAGS)
             opts["symmetric"] = is_symmetric(matrix)
-            if current_threads() > 1:
-                opts[CNR_THREADS] = current_threads()
         opts.update(options or {})
         if method == "umfpack" and _stores_lower_triangle(matrix):
             # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the

@@ -110,6 +110,7 @@ class DistributedSolver(IterativeSolver):
 
     method = "distributed"
     overlap = False  # its products and inner products communicate: one MPI call at a time
+    threaded = True
     preconditioner_type = DistributedPreconditioner
 
 

@@ -126,6 +126,8 @@ class IterativeSolver:
     method = "iterative"
     #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
     overlap = True
+    #: Its products and cycles run under NGSolve's TaskManager (`marching.march`).
+    threaded = True
     #: Builds the preconditioner (an object with ``mat``) from (matrix, spaces, materials, dt).
     preconditioner_type = BlockPreconditioner
 

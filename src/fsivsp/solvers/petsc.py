@@ -133,6 +133,8 @@ class PETScSolver:
     """
 
     method = "petsc"
+    #: PETSc solves on this thread alone, not under NGSolve's TaskManager (`marching.march`).
+    threaded = False
 
     def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float,
                  maxiter: int, options: Mapping[str, object] | None = None):
