@@ -2,8 +2,9 @@
 
 A refactor must not change results: this runs both commands (fresh processes, the default threads) and
 compares every error norm of every level and entry with `REFERENCE`, recorded before the change
-(issue 23: at commit 77a76cb). Prints the largest relative difference per command and exits 1 above
-``--tolerance`` (default 1e-12).
+(issue 23: at commit 77a76cb, on one thread). Prints the largest relative difference per command and exits 1
+above ``--tolerance`` (default 1e-12). ``--threads N`` runs the commands on N threads (FSIVSP_THREADS; default
+1, the reference's): between thread counts the errors agree to round-off, not to 1e-12 (docs/solvers.md).
 
     python benchmarks/equal_results.py                     # compare
     python benchmarks/equal_results.py --record            # run both and record them as the reference
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -22,11 +24,11 @@ REFERENCE = Path(__file__).with_suffix(".json")
 COMMANDS = {"paper": ["paper", "--dt", "1e-2", "--levels", "0-3"], "matrix": ["matrix"]}
 
 
-def run(command: str, folder: Path) -> Path:
-    """``fsivsp <command> --json`` into ``folder``; the JSON's path."""
+def run(command: str, folder: Path, threads: int) -> Path:
+    """``fsivsp <command> --json`` into ``folder`` on ``threads`` threads; the JSON's path."""
     out = folder / f"{command}.json"
     subprocess.run([sys.executable, "-m", "fsivsp.cli", *COMMANDS[command], "--json", str(out), "--quiet"],
-                   check=True, stdout=subprocess.DEVNULL)
+                   check=True, stdout=subprocess.DEVNULL, env=dict(os.environ, FSIVSP_THREADS=str(threads)))
     return out
 
 
@@ -51,10 +53,11 @@ def main() -> int:
     parser.add_argument("--paper", type=Path, help="an earlier `fsivsp paper --dt 1e-2 --levels 0-3 --json` output")
     parser.add_argument("--matrix", type=Path, help="an earlier `fsivsp matrix --json` output")
     parser.add_argument("--tolerance", type=float, default=1e-12)
+    parser.add_argument("--threads", type=int, default=1, help="threads of the runs (default 1, the reference's)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as folder:
         given = {"paper": args.paper, "matrix": args.matrix}
-        now = {c: errors(c, given[c] or run(c, Path(folder))) for c in COMMANDS}
+        now = {c: errors(c, given[c] or run(c, Path(folder), args.threads)) for c in COMMANDS}
     if args.record:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
         REFERENCE.write_text(json.dumps({"commit": commit, "errors": now}, indent=1) + "\n")

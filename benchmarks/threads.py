@@ -25,8 +25,8 @@ BALL = "examples/fluid_in_solid_3d.toml"
 #: (name, case, maxh of the coarse ball (None: the example's), level, solver, steps, norms): the paper's level 4
 #: (direct), the 3D fluid ball at level 3 (direct, iterative, PETSc) and on the 267 522-unknown mesh of
 #: benchmarks/scale_2m.json (maxh 0.17, level 3; iterative and PETSc, 5 steps).
-CONFIGURATIONS = [("paper", "paper", None, 4, "direct", 20, True),
-                  ("ball", BALL, None, 3, "direct", 20, True),
+CONFIGURATIONS = [("paper", "paper", None, 4, "direct", 100, True),
+                  ("ball", BALL, None, 3, "direct", 40, True),
                   ("ball", BALL, None, 3, "iterative", 20, False),
                   ("ball", BALL, None, 3, "petsc", 20, False),
                   ("ball 267k", BALL, 0.17, 3, "iterative", 5, False),
