@@ -23,11 +23,13 @@ demo: $(VENV)
 	$(BIN)/fsivsp study examples/fluid_over_solid_2d.toml --levels 0-2 --json demo/study.json
 	$(BIN)/fsivsp run examples/pressure_wave_2d.toml --out demo/pressure_wave_2d
 
+# pytest-xdist on every core (tests/conftest.py keeps the MPI and thread tests on one worker, and each run's default
+# threads are the cores divided among the workers): 5 min 34 s against 6 min 4 s in one process here (BENCHMARKS.md).
 test: $(VENV)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto
 
 test-all: $(VENV)
-	$(BIN)/python -m pytest -m ""
+	$(BIN)/python -m pytest -n auto -m ""
 
 bench: $(VENV)
 	$(BIN)/python benchmarks/scheme_timings.py --levels 0-4 --json benchmarks/scheme_timings.json
