@@ -2,8 +2,8 @@
 of the error norms (`fsivsp.projection`) and the coarsest levels of the multigrids (`multigrid`, `schur`).
 
 - `factorised`: A's factors on its free dofs, solves bit-identical from one process to the next: NGSolve's
-  sparsecholesky on one thread; under more (`threads.using`), where its factors and solves vary at round-off (and
-  PARDISO's too), UMFPACK, else SuperLU (sequential); on a distributed matrix (mpirun) MUMPS over the ranks
+  sparsecholesky on one thread; under more (`threads.using`), where its factors and solves vary at round-off,
+  UMFPACK, else SuperLU (sequential); on a distributed matrix (mpirun) MUMPS over the ranks
   (`mumps`).
 - `symmetric_solver`: load ↦ A⁺ load on the used dofs, by those factors (`Factorised`; a singular A, whose kernel
   is known, shifted and refined) or, given a preconditioner, by conjugate gradients (`ConjugateGradients`; the
