@@ -10,8 +10,8 @@ BIN := $(VENV)/bin
 $(VENV): pyproject.toml tools/install-system.sh
 	bash tools/install-system.sh
 	$(PYTHON) -m venv --system-site-packages $(VENV)
-	ls -d /usr/lib/petscdir/*/*-real/lib/python3/dist-packages 2>/dev/null | head -1 \
-		> $$($(BIN)/python -c "import sysconfig; print(sysconfig.get_path('purelib'))")/petsc4py-system.pth
+	ls -d /usr/lib/petscdir/*/*-real/lib/python3/dist-packages /usr/lib/slepcdir/*/*-real/lib/python3/dist-packages \
+		2>/dev/null > $$($(BIN)/python -c "import sysconfig; print(sysconfig.get_path('purelib'))")/petsc4py-system.pth
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test,fast]"
 	touch $(VENV)

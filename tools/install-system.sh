@@ -4,7 +4,7 @@
 # Installs them on Debian or Ubuntu as root; elsewhere says in one line how to get petsc4py and returns 0
 # (the PETSc backend then reports itself unavailable).
 set -euo pipefail
-PACKAGES="python3-petsc4py-real python3-mpi4py openmpi-bin libopenblas0-serial python3-venv"
+PACKAGES="python3-petsc4py-real python3-slepc4py-real python3-petsc4py-complex python3-slepc4py-complex python3-mpi4py openmpi-bin libopenblas0-serial python3-venv"
 installed() { dpkg-query -W -f='${Status}\n' $PACKAGES 2>/dev/null | grep -c 'install ok installed' || true; }
 if command -v dpkg-query >/dev/null && [ "$(installed)" -eq "$(echo $PACKAGES | wc -w)" ]; then
     exit 0
