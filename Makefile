@@ -5,7 +5,7 @@ PYTHON ?= $(shell test -x /usr/bin/python3 && echo /usr/bin/python3 || echo pyth
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: install demo test test-all bench clean
+.PHONY: install demo lint test test-all bench clean
 
 $(VENV): pyproject.toml tools/install-system.sh
 	bash tools/install-system.sh
@@ -25,10 +25,15 @@ demo: $(VENV)
 
 # pytest-xdist on every core (tests/conftest.py keeps the MPI and thread tests on one worker, and each run's default
 # threads are the cores divided among the workers): 5 min 34 s against 6 min 4 s in one process here (BENCHMARKS.md).
-test: $(VENV)
+# Lint first (ruff; the layers and no import circles: lint-imports, docs/design.md), then the suite.
+lint: $(VENV)
+	$(BIN)/ruff check .
+	$(BIN)/lint-imports
+
+test: lint
 	$(BIN)/python -m pytest -n auto
 
-test-all: $(VENV)
+test-all: lint
 	$(BIN)/python -m pytest -n auto -m ""
 
 bench: $(VENV)

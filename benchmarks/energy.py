@@ -21,16 +21,16 @@ import time
 import ngsolve as ngs
 import numpy as np
 
-from fsivsp.expressions import parse_vector
-from fsivsp.fields import Field
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import build_geometry
-from fsivsp.materials import Materials
-from fsivsp.report import write_json
-from fsivsp.data import Data
-from fsivsp.scheme import Scheme
+from fsivsp.io.atomic import write_json
+from fsivsp.model.data import Data
+from fsivsp.model.expressions import parse_vector
+from fsivsp.model.fields import Field
+from fsivsp.model.materials import Materials
 from fsivsp.solvers import SolverSpec
-from fsivsp.spaces import build_spaces
-from fsivsp.timeschemes import time_scheme
+from fsivsp.timestepping.scheme import Scheme
+from fsivsp.timestepping.schemes import time_scheme
 
 #: examples/fluid_over_solid_2d.toml's materials (ν is an option)
 MATERIALS = dict(rho_fluid=1.0, rho_solid=2.0, lam=1.5, mu=0.75)
@@ -44,7 +44,8 @@ def run(label: str, scheme_name: str, nu: float, args) -> dict:
     materials = Materials(nu=nu, **MATERIALS)
     data = Data(velocity0=Field([0, 0]), displacement0=Field(parse_vector(DISPLACEMENT0, "displacement0", 2)),
                 boundary_velocity={walls: Field([0, 0])})
-    scheme = Scheme(spaces, materials, data, args.dt, solver=SolverSpec(args.solver), time_scheme=time_scheme(scheme_name))
+    scheme = Scheme(spaces, materials, data, args.dt, solver=SolverSpec(args.solver),
+                    time_scheme=time_scheme(scheme_name))
     energy = [scheme.energy()]
     dissipated = [0.0]
     viscous = scheme._viscous
@@ -100,15 +101,16 @@ def main() -> None:
         r = run(label, name, nu, args)
         runs.append(r)
         line = (f"{label:>16}: {r['dofs']} dofs, {r['steps']} steps in {r['seconds']:.1f} s; E0 = {r['E0']:.6e}, "
-                f"E_N/E0 = {r['E_final_over_E0']:.3e}; max (E^n - E^(n-1))/E^(n-1) = {r['max_increase_over_previous']:.2e}, "
+                f"E_N/E0 = {r['E_final_over_E0']:.3e}; "
+                f"max (E^n - E^(n-1))/E^(n-1) = {r['max_increase_over_previous']:.2e}, "
                 f"max (E^n - E^(n-1))/E0 = {r['max_increase_over_E0']:.2e} ({r['steps_increasing']} steps increase); "
                 f"step 1: {r['first_step_change_over_E0']:+.2e}")
         if "dissipated" in r:
             line += (f"; E + D: max |E + D - E0|/E0 = {r['max_balance_deviation_over_E0']:.2e}, "
                      f"D_N/E0 = {r['dissipated_final_over_E0']:.4f}")
         print(line, flush=True)
-    print(f"machine: {platform.machine()}, ngsolve {ngs.__version__}; fluid_over_solid 2D, {args.family}, maxh {args.maxh}, "
-          f"dt {args.dt:g}, nu {args.nu:g}")
+    print(f"machine: {platform.machine()}, ngsolve {ngs.__version__}; fluid_over_solid 2D, {args.family}, "
+          f"maxh {args.maxh}, dt {args.dt:g}, nu {args.nu:g}")
     if args.plot:
         import matplotlib
         matplotlib.use("Agg")
@@ -135,7 +137,8 @@ def main() -> None:
                 e = np.array(r["energy"])
                 bottom.semilogy(t[2:], -np.diff(e)[1:] / e[1:-1], label=f"{r['label']}: −(Gⁿ − Gⁿ⁻¹)/Gⁿ⁻¹", alpha=0.7)
         bottom.set_ylabel("BDF2: decrease of G per step")
-        bottom.set_title("BDF2 (n ≥ 2): every value > 0 is a decrease (an increase would be missing on a log axis)", fontsize=8)
+        bottom.set_title("BDF2 (n ≥ 2): every value > 0 is a decrease (an increase would be missing on a log axis)",
+                         fontsize=8)
         bottom.set_xlabel("t")
         bottom.legend(fontsize=7)
         fig.tight_layout()

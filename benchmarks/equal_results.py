@@ -27,7 +27,7 @@ COMMANDS = {"paper": ["paper", "--dt", "1e-2", "--levels", "0-3"], "matrix": ["m
 def run(command: str, folder: Path, threads: int) -> Path:
     """``fsivsp <command> --json`` into ``folder`` on ``threads`` threads; the JSON's path."""
     out = folder / f"{command}.json"
-    subprocess.run([sys.executable, "-m", "fsivsp.cli", *COMMANDS[command], "--json", str(out), "--quiet"],
+    subprocess.run([sys.executable, "-m", "fsivsp", *COMMANDS[command], "--json", str(out), "--quiet"],
                    check=True, stdout=subprocess.DEVNULL, env=dict(os.environ, FSIVSP_THREADS=str(threads)))
     return out
 

@@ -51,14 +51,14 @@ def case_text(example: str, refine: int, discretisation: str, steps: int, data: 
 
 def measure(name: str, folder: Path) -> dict:
     """One case: the estimate (in this process) and the run's peak and output (in a child of /usr/bin/time)."""
-    from fsivsp.estimate import estimate
-    from fsivsp.runcase import load_run_case
+    from fsivsp.app.estimate import estimate
+    from fsivsp.config.production import load_run_case
 
     path = folder / f"{name}.toml"
     path.write_text(case_text(*CASES[name]))
     figures = estimate(load_run_case(path))
     out = folder / name
-    done = subprocess.run(["/usr/bin/time", "-f", "%M", sys.executable, "-m", "fsivsp.cli", "run", str(path),
+    done = subprocess.run(["/usr/bin/time", "-f", "%M", sys.executable, "-m", "fsivsp", "run", str(path),
                            "--out", str(out), "--quiet", "--force"], capture_output=True, text=True)
     if done.returncode:
         raise RuntimeError(f"{name}: {done.stderr}")

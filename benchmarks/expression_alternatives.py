@@ -24,17 +24,17 @@ from pathlib import Path
 import sympy
 from sympy.core.cache import clear_cache
 
-from fsivsp.expressions import ExpressionError, T, X, Y, Z, parse, to_coefficient, to_function
-from fsivsp.expressions.functions import CALLABLE
-from fsivsp.expressions.nodes import MAX_EXPONENT, Builder
-from fsivsp.expressions.parser import MAX_DEPTH, MAX_LENGTH, SIMPLE_TOKENS, _expected, _Parser, _Token
+from fsivsp.model.expressions import ExpressionError, T, X, Y, Z, parse, to_coefficient, to_function
+from fsivsp.model.expressions.functions import CALLABLE
+from fsivsp.model.expressions.nodes import MAX_EXPONENT, Builder
+from fsivsp.model.expressions.parser import MAX_DEPTH, MAX_LENGTH, SIMPLE_TOKENS, _expected, _Parser, _Token
 
 ROOT = Path(__file__).resolve().parent.parent
 OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Pow: "**"}
 
 
 class AstParser(Builder):
-    """The grammar of `fsivsp.expressions.parser` as a whitelist of Python ast nodes; nodes are built and
+    """The grammar of `fsivsp.model.expressions.parser` as a whitelist of Python ast nodes; nodes are built and
     checked by the same `Builder`."""
 
     def __init__(self, text: str, field: str, dim: int) -> None:
@@ -47,9 +47,10 @@ class AstParser(Builder):
         try:
             tree = ast.parse(self.text, mode="eval")
         except SyntaxError as error:
-            raise self.error(f"syntax error at position {(error.offset or 1) - 1}", "; " + _expected(self.dim))
+            raise self.error(f"syntax error at position {(error.offset or 1) - 1}",
+                             "; " + _expected(self.dim)) from None
         except (ValueError, RecursionError, MemoryError) as error:
-            raise self.error(f"cannot read ({type(error).__name__})")
+            raise self.error(f"cannot read ({type(error).__name__})") from None
         expr, _ = self.visit(tree.body, 0)
         if expr.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
             raise self.error("expression is not finite (division by zero?)")
@@ -86,7 +87,7 @@ class AstParser(Builder):
 
 
 def ast_parse(text, field: str, dim: int = 3) -> sympy.Expr:
-    """`fsivsp.expressions.parse` with the ast grammar."""
+    """`fsivsp.model.expressions.parse` with the ast grammar."""
     if isinstance(text, bool) or not isinstance(text, (str, int, float)):
         raise ExpressionError(f"{field}: expected an expression string, got {type(text).__name__}")
     text = str(text)
@@ -122,13 +123,13 @@ SWAPS = {"ast.parse": ("parse", ast_parse), "lambdify": ("to_function", lambdify
 
 
 def pytest_configure(config) -> None:
-    import fsivsp.expressions
-    import fsivsp.expressions.parser
+    import fsivsp.model.expressions
+    import fsivsp.model.expressions.parser
 
     name, function = SWAPS[os.environ["FSIVSP_SWAP"]]
     setattr(fsivsp.expressions, name, function)
     if name == "parse":
-        fsivsp.expressions.parser.parse = function  # parse_vector's
+        fsivsp.model.expressions.parser.parse = function  # parse_vector's
 
 
 def generated(n: int, seed: int = 23) -> list[str]:
@@ -203,7 +204,8 @@ def compilers(tests) -> dict:
     points = [mesh(0.1 + 0.08 * i, 0.2 + 0.07 * i) for i in range(10)]
     largest = max(abs(to_coefficient(e, t)(p) - lambdify_coefficient(e, t)(p)) for e in spaces for p in points)
     for name, compiler in (("to_coefficient", to_coefficient), ("lambdify (coefficients)", lambdify_coefficient)):
-        result[name] = {"compile_us": best_time(lambda e: compiler(e, t), spaces) / len(spaces) * 1e6}
+        result[name] = {"compile_us": best_time(lambda e, compiler=compiler: compiler(e, t), spaces)
+                        / len(spaces) * 1e6}
     result["coefficients_largest_difference"] = largest
     return result
 

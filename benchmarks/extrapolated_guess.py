@@ -6,11 +6,13 @@ xⁿ⁻¹ in the checkpoint). The paper's experiment, Δt = 1e-2, 20 steps, the 
 """
 
 import numpy as np
-from fsivsp.paper import paper_case
+
+from fsivsp.experiments.paper import paper_case
+from fsivsp.experiments.study import discretise
 from fsivsp.geometry import refined
-from fsivsp.study import discretise
-from fsivsp.scheme import Scheme
 from fsivsp.solvers import SolverSpec
+from fsivsp.timestepping.scheme import Scheme
+
 
 def run(extrapolate, level, steps, tol):
     case = paper_case(1e-2, solver=SolverSpec("petsc", tolerance=tol))
@@ -21,10 +23,12 @@ def run(extrapolate, level, steps, tol):
         g = original(self)
         if not extrapolate:
             return g
-        out = g.CreateVector(); out.data = g
+        out = g.CreateVector()
+        out.data = g
         if previous:
             out.data = 2 * g - previous[0]
-        previous[:] = [g.CreateVector()]; previous[0].data = g
+        previous[:] = [g.CreateVector()]
+        previous[0].data = g
         return out
     Scheme.guess = guess
     try:

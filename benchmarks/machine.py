@@ -54,7 +54,7 @@ def main() -> None:
     low, high = (int(x) for x in args.levels.split("-"))
     rows = measure(range(low, high + 1))
     if args.json:
-        from fsivsp.report import write_json
+        from fsivsp.io.atomic import write_json
         write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "rows": rows})
 
 

@@ -51,7 +51,7 @@ def toml(table: dict, name: str = "") -> list[str]:
 
 def run(case: Path, out: Path, ranks: int) -> dict:
     """One ``fsivsp run`` (ranks = 1: without mpirun) and the record of its summary."""
-    command = [sys.executable, "-m", "fsivsp.cli", "run", str(case), "--out", str(out), "--quiet"]
+    command = [sys.executable, "-m", "fsivsp", "run", str(case), "--out", str(out), "--quiet"]
     if ranks > 1:
         mpirun = shutil.which("mpirun", path=str(Path(sys.executable).parent)) or "mpirun"
         command = [mpirun, "-np", str(ranks), *command]

@@ -14,12 +14,12 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp import forms
-from fsivsp.case import load_study_case
+from fsivsp.config.case import load_study_case
+from fsivsp.experiments.report import write_json
+from fsivsp.experiments.study import discretise
+from fsivsp.fem import forms
 from fsivsp.geometry import SOLID, refined
-from fsivsp.report import write_json
 from fsivsp.solvers import compact
-from fsivsp.study import discretise
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 ENTRY = 12

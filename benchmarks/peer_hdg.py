@@ -13,11 +13,11 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp.case import load_study_case
-from fsivsp.fields import Field
-from fsivsp.forms import eps
+from fsivsp.config.case import load_study_case
+from fsivsp.experiments.study import discretise, max_edge_length
+from fsivsp.fem.forms import eps
 from fsivsp.geometry import FLUID, SOLID, refined
-from fsivsp.study import discretise, max_edge_length
+from fsivsp.model.fields import Field
 
 CASE = Path(__file__).resolve().parent.parent / "examples" / "peer_hdg_example1.toml"
 A_FLUID = (0.5, 1e6 / (4 * (1e6 + 1)))    # the peer's a_F1, a_F2 (μ_F = 1, λ_F = 1e6)

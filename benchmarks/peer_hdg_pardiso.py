@@ -12,12 +12,12 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse.linalg as sla
 
-from fsivsp import forms
-from fsivsp.case import load_study_case
+from fsivsp.config.case import load_study_case
+from fsivsp.experiments.study import dirichlet_boundaries
+from fsivsp.fem import forms
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
 from fsivsp.solvers import DirectSolver, compact, free_mask, to_scipy_csr
-from fsivsp.spaces import build_spaces
-from fsivsp.study import dirichlet_boundaries
 
 #: (label, method, options, refinement steps)
 VARIANTS = (

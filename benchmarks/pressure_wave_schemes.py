@@ -1,8 +1,8 @@
 """The 2D pressure wave (`examples/pressure_wave_2d.toml`) with the three time schemes and large steps.
 
 Runs the example (same mesh, same probes, VTK and checkpoints off) with backward Euler, θ = 1/2 and BDF2 at
-several Δt, measures the half-maximum arrival time at each probe with `fsivsp.validation.arrival_times` on the
-run's ``probes.csv`` (the run samples the probes every step) and the peak pressure at each probe, and compares
+several Δt, measures the half-maximum arrival time at each probe with `fsivsp.experiments.moens_korteweg.arrival_times`
+on the run's ``probes.csv`` (the run samples the probes every step) and the peak pressure at each probe, and compares
 them with a reference run (default: BDF2 at the example's Δt / 4; the script also runs backward Euler at Δt / 4
 and BDF2 at Δt so that the reference's own error can be read off). Prints a table and writes JSON.
 
@@ -21,11 +21,11 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp.report import write_json
-from fsivsp.run import run_case
-from fsivsp.runcase import load_run_case
-from fsivsp.timeschemes import time_scheme
-from fsivsp.validation import arrival_times, read_probe_pressures
+from fsivsp.app.loop import run_case
+from fsivsp.config.production import load_run_case
+from fsivsp.experiments.moens_korteweg import arrival_times, read_probe_pressures
+from fsivsp.experiments.report import write_json
+from fsivsp.timestepping.schemes import time_scheme
 
 EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "pressure_wave_2d.toml"
 LABEL = {"backward_euler": "BE", "theta": "θ=1/2", "bdf2": "BDF2"}
@@ -56,7 +56,8 @@ def main() -> None:
     parser.add_argument("--factors", type=float, nargs="+", default=[2.0, 4.0, 8.0],
                         help="multiples of the example's Δt for the three schemes")
     parser.add_argument("--reference", default="bdf2:0.25", help="SCHEME:FACTOR of the reference run")
-    parser.add_argument("--extra", nargs="*", default=["theta:0.25", "backward_euler:0.25", "bdf2:1", "theta:1", "backward_euler:1"],
+    parser.add_argument("--extra", nargs="*",
+                        default=["theta:0.25", "backward_euler:0.25", "bdf2:1", "theta:1", "backward_euler:1"],
                         help="further SCHEME:FACTOR runs (the reference's own error, the example's Δt)")
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
@@ -83,7 +84,8 @@ def main() -> None:
 
     case = load_run_case(args.case)
     probes = [p[0] for p in case.output["probes"]]
-    print(f"\nmachine: {platform.machine()}, ngsolve {ngs.__version__}; case {args.case.name}, example Δt = {case.dt:g}, "
+    print(f"\nmachine: {platform.machine()}, ngsolve {ngs.__version__}; case {args.case.name}, "
+          f"example Δt = {case.dt:g}, "
           f"{ref['dofs']} free dofs; reference {LABEL[ref['scheme']]} at Δt = {ref['dt']:g}")
     head = " | ".join(f"x = {x:g}" for x in probes)
     print(f"| scheme | Δt | steps | arrival [ms] ({head}) | rel. error vs ref. | max |err| | "
@@ -91,7 +93,8 @@ def main() -> None:
     for r in runs:
         print(f"| {LABEL[r['scheme']]} | {r['dt']:.4g} | {r['steps']} | "
               + " / ".join(f"{1e3 * a:.3f}" for a in r["arrivals"]) + " | "
-              + " / ".join(f"{100 * e:+.2f}%" for e in r["arrival_error"]) + f" | {100 * r['max_abs_arrival_error']:.2f}% | "
+              + " / ".join(f"{100 * e:+.2f}%" for e in r["arrival_error"])
+              + f" | {100 * r['max_abs_arrival_error']:.2f}% | "
               f"{r['peaks'][-1]:.1f} | {r['peak_ratio_to_reference'][-1]:.3f} | "
               + (f"{r['last_peak_over_backward_euler']:.3f}" if r["last_peak_over_backward_euler"] else "–")
               + f" | {r['seconds']:.1f} |")

@@ -14,13 +14,13 @@ import dataclasses
 import time
 from pathlib import Path
 
-from fsivsp.case import load_study_case
+from fsivsp.config.case import load_study_case
+from fsivsp.experiments.paper import paper_case
+from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
-from fsivsp.paper import paper_case
-from fsivsp.report import write_json
-from fsivsp.scheme import Scheme
-from fsivsp.spaces import build_spaces
-from fsivsp.study import dirichlet_boundaries, manufactured_data
+from fsivsp.io.atomic import write_json
+from fsivsp.timestepping.scheme import Scheme
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
@@ -32,7 +32,8 @@ def iterations(case, level: int, steps: int, solver: str) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
     spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress, case.discretisation.initial_velocity)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress,
+                             case.discretisation.initial_velocity)
     start = time.perf_counter()
     scheme = Scheme(spaces, case.materials, data, case.dt,
                     solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS).solver)
@@ -58,7 +59,8 @@ def rows(max_level_2d: int, max_level_3d: int):
     for level in range(max_level_3d):
         yield "Taylor–Hood k = 2 in 3D", "solid_in_fluid_3d", \
             solid.with_discretisation(family="taylor_hood", order=2), level
-        yield "materials", "solid_in_fluid_3d, lam/mu = 1e+04", dataclasses.replace(solid, materials=incompressible), level
+        yield "materials", "solid_in_fluid_3d, lam/mu = 1e+04", \
+            dataclasses.replace(solid, materials=incompressible), level
     paper = paper_case(1e-2)
     for name, values in (("lam/mu", (1.0, 1e2, 1e4)), ("rho_solid/rho_fluid", (0.1, 1.0, 10.0)),
                          ("nu", (1e-3, 1e-1, 1.0))):

@@ -24,13 +24,13 @@ EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 
 def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict:
     """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
-    from fsivsp.case import load_study_case
-    from fsivsp.geometry import refined
-    from fsivsp.scheme import Scheme
-    from fsivsp.spaces import build_spaces
-    from fsivsp.study import dirichlet_boundaries, manufactured_data
-
     import dataclasses
+
+    from fsivsp.config.case import load_study_case
+    from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
+    from fsivsp.fem.spaces import build_spaces
+    from fsivsp.geometry import refined
+    from fsivsp.timestepping.scheme import Scheme
     case = load_study_case(EXAMPLE).with_solver(tolerance=tolerance)
     if maxh is not None:
         from fsivsp.geometry import build_geometry
@@ -45,7 +45,8 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet)
     seconds["spaces"] = time.perf_counter() - start
     start = time.perf_counter()
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress, case.discretisation.initial_velocity)
+    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress,
+                             case.discretisation.initial_velocity)
     scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.with_solver(method=solver).solver)
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
@@ -100,14 +101,16 @@ def plot(rows: list[dict], path: Path) -> None:
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4))
     for solver, marker in (("iterative", "o"), ("petsc", "^"), ("direct", "s")):
-        mine = [r for r in rows if r["solver"] == solver or (solver == "direct" and r["solver"] not in ("iterative", "petsc"))]
+        mine = [r for r in rows
+                if r["solver"] == solver or (solver == "direct" and r["solver"] not in ("iterative", "petsc"))]
         if not mine:
             continue
         n = [r["dofs"] for r in mine]
         left.loglog(n, [r["seconds"]["step"] for r in mine], marker + "-", label=f"{solver}: time per step")
         left.loglog(n, [r["seconds"]["scheme"] for r in mine], marker + "--", label=f"{solver}: set-up")
         right.loglog(n, [r["peak_bytes"] / 2**30 for r in mine], marker + "-", label=solver)
-    left.set_xlabel("free unknowns"), left.set_ylabel("seconds"), left.legend(), left.grid(True, which="both", alpha=0.3)
+    left.set_xlabel("free unknowns"), left.set_ylabel("seconds"), left.legend()
+    left.grid(True, which="both", alpha=0.3)
     right.set_xlabel("free unknowns"), right.set_ylabel("peak memory (GiB)"), right.legend()
     right.grid(True, which="both", alpha=0.3)
     fig.suptitle("fsivsp: 3D fluid ball, MINI (benchmarks/scale.py)")
@@ -125,7 +128,8 @@ def growth(rows: list[dict], method: str) -> None:
 
     def exponent(key):
         return math.log(key(b) / key(a)) / math.log(b["dofs"] / a["dofs"])
-    print(f"{method}, between the two largest sizes: time per step grows like N^{exponent(lambda r: r['seconds']['step']):.2f}, "
+    print(f"{method}, between the two largest sizes: "
+          f"time per step grows like N^{exponent(lambda r: r['seconds']['step']):.2f}, "
           f"one product with the step matrix like N^{exponent(lambda r: r['seconds']['matvec']):.2f}, "
           f"time per step in products like N^{exponent(lambda r: r['seconds']['step'] / r['seconds']['matvec']):.2f}")
 
@@ -162,12 +166,13 @@ def main() -> None:
             print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  set-up {s['scheme']:8.1f} s "
                   f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s = {s['step'] / s['matvec']:7.1f} "
                   f"products  its {its.get('mean', 0):6.1f}  "
-                  f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = {row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
+                  f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = "
+                  f"{row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
                   flush=True)
     for method in ("iterative", "petsc"):
         growth(rows, method)
     if args.json:
-        from fsivsp.report import write_json
+        from fsivsp.experiments.report import write_json
         write_json(args.json, {"machine": platform.platform(), "processor": platform.processor(), "maxh": args.maxh,
                                "tolerance": args.tolerance, "rows": rows})
     if args.plot:

@@ -18,15 +18,15 @@ import time
 
 import ngsolve as ngs
 
-from fsivsp import forms
-from fsivsp.arguments import levels_arg
+from fsivsp.app.arguments import levels_arg
+from fsivsp.experiments.paper import paper_case
+from fsivsp.experiments.report import write_json
+from fsivsp.experiments.study import Errors, dirichlet_boundaries, manufactured_data
+from fsivsp.fem import forms
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
-from fsivsp.paper import paper_case
-from fsivsp.report import write_json
-from fsivsp.scheme import Scheme
 from fsivsp.solvers import DirectSolver, SolverSpec
-from fsivsp.spaces import build_spaces
-from fsivsp.study import Errors, dirichlet_boundaries, manufactured_data
+from fsivsp.timestepping.scheme import Scheme
 
 
 def timed(fn) -> float:
@@ -62,9 +62,9 @@ def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
     parts = {"rhs": [], "solve": [], "stress": [], "norms": [], "step": []}
     for _ in range(steps):
         n, current = scheme.n + 1, scheme.time_scheme
-        a = timed(lambda: scheme.right_hand_side(current, n, scheme._rhs, scheme._boundary))
+        a = timed(lambda current=current, n=n: scheme.right_hand_side(current, n, scheme._rhs, scheme._boundary))
         b = timed(lambda: scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, scheme.guess()))
-        c = timed(lambda: scheme.accept(scheme._raw, n, current, None))
+        c = timed(lambda n=n, current=current: scheme.accept(scheme._raw, n, current, None))
         d = timed(lambda: errors(scheme))
         for key, value in zip(("rhs", "solve", "stress", "norms", "step"), (a, b, c, d, a + b + c + d)):
             parts[key].append(value)

@@ -22,14 +22,13 @@ import statistics
 import sys
 import time
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
-from fsivsp.forms import step_matrix
+from fsivsp.fem.forms import step_matrix
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import paper_channel, refined
-from fsivsp.materials import Materials
-from fsivsp.spaces import build_spaces
-
+from fsivsp.model.materials import Materials
 from fsivsp.solvers import DirectSolver, SolverError, available_methods, default_method
 
 ngs.ngsglobals.msg_level = 0
@@ -64,7 +63,8 @@ TUNING_VARIANTS = [
     ("scipy-MMD_ATA", "scipy", {"permc_spec": "MMD_ATA", "diag_pivot_thresh": 1.0, "options": {}}),
     ("scipy-MMD_AT_PLUS_A-symmode", "scipy",
      {"permc_spec": "MMD_AT_PLUS_A", "diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}),
-    ("scipy-COLAMD-symmode", "scipy", {"permc_spec": "COLAMD", "diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}),
+    ("scipy-COLAMD-symmode", "scipy",
+     {"permc_spec": "COLAMD", "diag_pivot_thresh": 0.1, "options": {"SymmetricMode": True}}),
     # MMD_AT_PLUS_A with partial pivoting (diag_pivot_thresh=1) took 197 s at level 4: left out
 
 ]

@@ -1,4 +1,4 @@
-"""1 against 2 threads (`fsivsp.threads.using`), one fresh process per configuration and thread count.
+"""1 against 2 threads (`fsivsp.runtime.threads.using`), one fresh process per configuration and thread count.
 
 Per configuration, on 1 and on 2 threads with the ratio 1-thread / 2-thread:
 - ``assembly``: the step matrix's assembly alone (`forms.step_matrix`), timed once more after the scheme exists;
@@ -23,13 +23,11 @@ import time
 
 BALL = "examples/fluid_in_solid_3d.toml"
 #: (name, case, maxh of the coarse ball (None: the example's), level, solver, steps, norms): the paper's level 4
-#: (direct), the 3D fluid ball at level 3 (direct, iterative, PETSc) and on the 267 522-unknown mesh of
-#: benchmarks/scale_2m.json (maxh 0.17, level 3; iterative and PETSc, 5 steps).
+#: (direct), the 3D fluid ball at level 3 (direct, PETSc) and on the 267 522-unknown mesh of
+#: benchmarks/scale_2m.json (maxh 0.17, level 3; PETSc, 5 steps).
 CONFIGURATIONS = [("paper", "paper", None, 4, "direct", 100, True),
                   ("ball", BALL, None, 3, "direct", 40, True),
-                  ("ball", BALL, None, 3, "iterative", 20, False),
                   ("ball", BALL, None, 3, "petsc", 20, False),
-                  ("ball 267k", BALL, 0.17, 3, "iterative", 5, False),
                   ("ball 267k", BALL, 0.17, 3, "petsc", 5, False)]
 QUICK_LEVELS = {"paper": 1, "ball": 1, "ball 267k": 0}
 TIMES = ("setup", "assembly", "solver_setup", "scheme", "norms", "step")
@@ -45,15 +43,15 @@ def measure(where: str, maxh: float | None, level: int, solver: str, threads: in
     """One configuration on ``threads`` threads, in this process."""
     import dataclasses
 
-    from fsivsp import forms
-    from fsivsp.case import load_study_case
+    from fsivsp.app.loop import peak_memory
+    from fsivsp.config.case import load_study_case
+    from fsivsp.experiments.paper import paper_case
+    from fsivsp.experiments.study import Errors, dirichlet_boundaries, manufactured_data
+    from fsivsp.fem import forms
+    from fsivsp.fem.spaces import build_spaces
     from fsivsp.geometry import build_geometry, refined
-    from fsivsp.paper import paper_case
-    from fsivsp.run import peak_memory
-    from fsivsp.scheme import Scheme
-    from fsivsp.spaces import build_spaces
-    from fsivsp.study import Errors, dirichlet_boundaries, manufactured_data
-    from fsivsp.threads import using
+    from fsivsp.runtime.threads import using
+    from fsivsp.timestepping.scheme import Scheme
 
     with using(threads):
         case = (paper_case(1e-2) if where == "paper" else load_study_case(where)).with_solver(method=solver)

@@ -28,15 +28,15 @@ from pathlib import Path
 
 import ngsolve as ngs
 
-from fsivsp.arguments import levels_arg
+from fsivsp.app.arguments import levels_arg
+from fsivsp.experiments.paper import paper_case
+from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
+from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
-from fsivsp.paper import paper_case
-from fsivsp.report import write_json
-from fsivsp.scheme import Scheme
+from fsivsp.io.atomic import write_json
 from fsivsp.solvers import SolverSpec
-from fsivsp.spaces import build_spaces
-from fsivsp.study import dirichlet_boundaries, manufactured_data
-from fsivsp.timeschemes import time_scheme
+from fsivsp.timestepping.scheme import Scheme
+from fsivsp.timestepping.schemes import time_scheme
 
 SCHEMES = ("backward_euler", "theta", "bdf2")
 EXAMPLE3D = Path(__file__).resolve().parent.parent / "examples" / "pressure_wave.toml"
@@ -95,8 +95,8 @@ def paper_builder(level: int, dt: float, solver: str | None):
 
 
 def example_builder(path: Path, solver: str | None):
-    from fsivsp.run import build_scheme
-    from fsivsp.runcase import load_run_case
+    from fsivsp.app.loop import build_scheme
+    from fsivsp.config.production import load_run_case
     case = load_run_case(path)
     if solver is not None:
         case = dataclasses.replace(case, solver=dataclasses.replace(case.solver, method=solver))
@@ -147,7 +147,7 @@ def measure(info: dict, build, steps: int, march_blocks: int, march_block: int) 
     for _ in range(march_blocks):                          # march, interleaved in blocks
         for name, (scheme, counter) in schemes.items():
             cpu = time.process_time()
-            marched[name].append(timed(lambda: scheme.march(march_block)) / march_block)
+            marched[name].append(timed(lambda scheme=scheme: scheme.march(march_block)) / march_block)
             cpu_marched[name].append((time.process_time() - cpu) / march_block)
             counter.reset()
     be = per_step["backward_euler"]
@@ -184,7 +184,8 @@ def combine(repeats: list[dict]) -> dict:
             values = [r["schemes"][name][key] for r in repeats]
             merged[key] = (statistics.median(values) if isinstance(value, (int, float)) and not isinstance(value, bool)
                            and all(v is not None for v in values) else value)
-        for key in ("step_ratio", "step_ratio_paired", "march_ratio", "first_step", "cpu_step_ratio", "cpu_march_ratio"):
+        for key in ("step_ratio", "step_ratio_paired", "march_ratio", "first_step", "cpu_step_ratio",
+                    "cpu_march_ratio"):
             merged[f"{key}_each"] = [r["schemes"][name][key] for r in repeats]
         record["schemes"][name] = merged
     return record
@@ -264,7 +265,8 @@ def main() -> None:
                        for _ in range(args.repeats)]
         else:
             info, build = paper_builder(int(target), args.dt, args.solver)
-            repeats = [measure(info, build, args.steps, args.march_blocks, args.march_block) for _ in range(args.repeats)]
+            repeats = [measure(info, build, args.steps, args.march_blocks, args.march_block)
+                       for _ in range(args.repeats)]
         record = combine(repeats)
         if args.memory and (target == "3d" or int(target) == max(args.levels)):
             record["memory"] = memory(target, args.dt, args.solver, 5)
@@ -281,14 +283,16 @@ def main() -> None:
     for r in records:
         for name in SCHEMES:
             s = r["schemes"][name]
-            span = lambda key: f"[{min(s[key + '_each']):.3f}–{max(s[key + '_each']):.3f}]"
+            span = lambda key, s=s: f"[{min(s[key + '_each']):.3f}–{max(s[key + '_each']):.3f}]"
             march = (f"{1e3 * s['march_step']:.3f} | {s['march_ratio']:.3f} {span('march_ratio')} | "
                      f"{s['cpu_march_ratio']:.3f} {span('cpu_march_ratio')}" if s["march_step"] else "– | – | –")
             solver = s["solver"] + (f" ({s['minres_iterations_median']:g} its/step, first step "
                                     f"{s['first_step_minres_iterations']})" if "minres_iterations_median" in s else "")
             print(f"| {r['mesh']} | {r['dofs']} | {name} | {solver} | {s['setup']:.2f} | {s['first_step']:.4f} "
-                  f"({s['first_step_solves']:g}; {s['first_step_solve_seconds']:.4f}) | {1e3 * s['step']:.3f} | {1e3 * s['solve']:.3f} | {1e3 * s['rest']:.3f} | "
-                  f"{s['step_ratio']:.3f} {span('step_ratio')} | {s['step_ratio_paired']:.3f} {span('step_ratio_paired')} | "
+                  f"({s['first_step_solves']:g}; {s['first_step_solve_seconds']:.4f}) | {1e3 * s['step']:.3f} | "
+                  f"{1e3 * s['solve']:.3f} | {1e3 * s['rest']:.3f} | "
+                  f"{s['step_ratio']:.3f} {span('step_ratio')} | "
+                  f"{s['step_ratio_paired']:.3f} {span('step_ratio_paired')} | "
                   f"{s['cpu_step_ratio']:.3f} {span('cpu_step_ratio')} | "
                   f"{march} |")
     for r in records:

@@ -36,7 +36,7 @@ def measure(maxh: float, solver: str, ranks: int, steps: int, folder: Path) -> d
     case = folder / f"tube_{maxh}_{solver}_{ranks}.toml"
     case.write_text(case_text(maxh, solver, steps))
     out = folder / case.stem
-    command = [sys.executable, "-m", "fsivsp.cli", "run", str(case), "--out", str(out), "--quiet"]
+    command = [sys.executable, "-m", "fsivsp", "run", str(case), "--out", str(out), "--quiet"]
     if ranks > 1:
         command = ["/usr/bin/mpirun", "--allow-run-as-root", "-np", str(ranks), *command]
     done = subprocess.run(command, capture_output=True, text=True)

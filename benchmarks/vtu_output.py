@@ -17,7 +17,7 @@ import ngsolve as ngs
 import numpy as np
 
 from fsivsp.geometry import build_geometry, refined
-from fsivsp.output import VTKSeries, region_cf, symmetric_tensor
+from fsivsp.io import VTKSeries, region_cf, symmetric_tensor
 
 ngs.SetNumThreads(1)
 

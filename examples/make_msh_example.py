@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 
 import ngsolve as ngs
-from netgen.occ import X, Y, Glue, MoveTo, OCCGeometry, Rectangle
+from netgen.occ import Glue, MoveTo, OCCGeometry, Rectangle, X, Y
 
-from fsivsp.meshexport import write_gmsh
+from fsivsp.geometry.export import write_gmsh
 
 OUT = Path(__file__).with_name("channel_2d.msh")
 

@@ -3,7 +3,7 @@ import os
 import ngsolve as ngs
 import pytest
 
-# In-process code outside `fsivsp.threads.using` runs on one NGSolve thread (the package sets no thread count at
+# In-process code outside `fsivsp.runtime.threads.using` runs on one NGSolve thread (the package sets no thread count at
 # import); runs through the CLI or `fsivsp.run` take the default threads (the cores, used where they pay:
 # `threads.fit`), tests of a given count enter `using(n)` or pass `--threads n`. Under `pytest -n N` the workers
 # share the cores: each run's default is the cores divided among the workers (FSIVSP_THREADS, at least 1).
@@ -11,8 +11,16 @@ if (workers := os.environ.get("PYTEST_XDIST_WORKER_COUNT", "")).isdigit():
     os.environ.setdefault("FSIVSP_THREADS", str(max(1, len(os.sched_getaffinity(0)) // int(workers))))
 ngs.SetNumThreads(1)
 
-from fsivsp import forms
+from pathlib import Path
+
+import numpy as np
+
+from fsivsp.config.case import load_study_case
+from fsivsp.experiments.study import study
+from fsivsp.fem import forms
 from fsivsp.geometry import FLUID, paper_channel, refined
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
 
 
 @pytest.fixture(scope="session")
@@ -33,6 +41,57 @@ def _discrete_divergence(scheme) -> float:
 def discrete_divergence():
     """The norm of (∫_F q_i div v_h)_i for the scheme's current velocity (zero if discretely divergence-free)."""
     return _discrete_divergence
+
+
+@pytest.fixture(scope="session")
+def examples() -> Path:
+    """The folder of the example case files."""
+    return EXAMPLES
+
+
+@pytest.fixture
+def example():
+    """``example(name, **changes)``: the study case examples/NAME.toml with the `Discretisation` ``changes``."""
+    def load(name: str, **changes):
+        return load_study_case(EXAMPLES / f"{name}.toml").with_discretisation(**changes)
+    return load
+
+
+@pytest.fixture
+def same_errors():
+    """``same_errors(case, levels, method="petsc", rtol=1e-6)``: study ``case`` with the direct solver and with
+    ``method``; assert equal error norms on every level; return ``method``'s records (their solver PETSc's)."""
+    def compare(case, levels, method: str = "petsc", rtol: float = 1e-6) -> list[dict]:
+        direct = study(case.with_solver(method="direct"), levels)
+        records = study(case.with_solver(method=method), levels)
+        for a, b in zip(direct, records):
+            assert b["solver"] == "petsc" and a["solver"] != "petsc"
+            for name, error in a["errors"].items():
+                assert b["errors"][name] == pytest.approx(error, rel=rtol), (a["level"], name)
+        return records
+    return compare
+
+
+@pytest.fixture
+def record_assembly(monkeypatch):
+    """``record_assembly()``: from then on, assemblies and factorisations are not done but listed (returned)."""
+    def start() -> list[str]:
+        calls = []
+        monkeypatch.setattr(ngs.BilinearForm, "Assemble", lambda *a, **k: calls.append("assemble"))
+        monkeypatch.setattr(ngs.LinearForm, "Assemble", lambda *a, **k: calls.append("assemble load"))
+        monkeypatch.setattr(ngs.la.SparseMatrixd, "Inverse", lambda *a, **k: calls.append("inverse"))
+        return calls
+    return start
+
+
+@pytest.fixture
+def same_state():
+    """``same_state(a, b)``: two schemes at the same step with equal (v, p) and u_h (so σ_h) up to round-off."""
+    def equal(a, b) -> bool:
+        pairs = ((a.state.vec, b.state.vec), (a.carried.vec, b.carried.vec))
+        return a.n == b.n and a.time == b.time and all(
+            np.abs(x.FV().NumPy() - y.FV().NumPy()).max() <= 1e-12 * np.abs(y.FV().NumPy()).max() for x, y in pairs)
+    return equal
 
 
 @pytest.fixture
@@ -56,9 +115,11 @@ def tiny_disk(tmp_path):
 #: "wave2d", the README's pressure-wave run and its --resume, which continues in the run's folder (test_readme.py's
 #: `ran`). Groups of (test file, test name prefix). Not xdist_group marks: xdist 3.8 applies them by rewriting
 #: `item._nodeid`, which pytest 9.2 no longer reads, so they group nothing.
-GROUPS = {"two_cores": [("test_mpi.py", ""), ("test_threads.py", ""), ("test_run_options.py", "test_set_and_stages_on_two_ranks"),
+GROUPS = {"two_cores": [("test_mpi.py", ""), ("test_threads.py", ""),
+                        ("test_run_options.py", "test_set_and_stages_on_two_ranks"),
                         ("test_faults.py", "test_ctrl_c_in_paper_all")],
-          "wave2d": [("test_readme.py", "test_cheap_commands_run[fsivsp run examples/pressure_wave_2d.toml --out wave2d")]}
+          "wave2d": [("test_readme.py",
+                      "test_cheap_commands_run[fsivsp run examples/pressure_wave_2d.toml --out wave2d")]}
 
 
 def group_of(nodeid: str) -> str | None:

@@ -4,21 +4,21 @@
     records = fsivsp.study(fsivsp.paper_case(dt=1e-2), range(0, 3))
     summary = fsivsp.run("examples/pressure_wave_2d.toml", out="wave2d")   # as `fsivsp run`
 """
-from .case import Case, CaseError, Discretisation
-from .expressions import ExpressionError, parse, parse_vector
-from .fields import Field
+from .app.api import run
+from .config.case import Case, CaseError, Discretisation
+from .experiments.paper import paper_case, reference_table
+from .experiments.study import manufactured_data, run_level, study, time_study
+from .fem.spaces import Spaces, build_spaces
 from .geometry import paper_channel, refined
-from .manufactured import ExactSolution, ManufacturedError
-from .materials import Materials
-from .paper import paper_case, reference_table
-from .runner import run
-from .data import Data
-from .scheme import Scheme
-from .spaces import Spaces, build_spaces
-from . import threads
+from .model.data import Data
+from .model.expressions import ExpressionError, parse, parse_vector
+from .model.fields import Field
+from .model.manufactured import ExactSolution, ManufacturedError
+from .model.materials import Materials
+from .runtime import threads  # noqa: F401  (fsivsp.threads.using: the public API)
 from .solvers import SolverSpec
-from .study import manufactured_data, run_level, study, time_study
-from .timeschemes import time_scheme
+from .timestepping.scheme import Scheme
+from .timestepping.schemes import time_scheme
 
 __version__ = "0.1.0"
 __all__ = [

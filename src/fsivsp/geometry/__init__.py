@@ -24,24 +24,52 @@ curved boundaries; docs/meshes.md describes the file formats):
 The modules: `regions` (the names, their checks and counts, the interface normal), `refine`
 (geometry-free meshes, red refinement), `params` (checks of the ``[geometry]`` values), `shapes`
 (the built-in shapes), `mesh_files` (gmsh and netgen files), `cad_files` (STEP, BREP, IGES) and
-`registry` (``KINDS``, ``build_geometry``).
+`registry` (``KINDS``, ``build_geometry``), `curved` (curved cells: onto the geometry, a mesh file's
+second-order cells), `export` (a mesh as a gmsh file) and `distribute` (a mesh over MPI ranks).
 """
 from .cad_files import cad
+from .distribute import distribute, shared_case
 from .mesh_files import GMSH_CELLS, MID_EDGES, load_mesh
 from .params import CAD_SUFFIXES, MESH_SUFFIXES
 from .refine import netgen_mesh, refined, without_geometry
-from .regions import (FLUID, FLUID_WALL, INFLOW, INTERFACE, OUTFLOW, SOLID, SOLID_ENDS, SOLID_WALL, GeometryError,
-                      check_distributable, check_regions, extent, interface_normal, locked_fluid_cells, region_counts)
+from .regions import (
+    FLUID,
+    FLUID_WALL,
+    INFLOW,
+    INTERFACE,
+    OUTFLOW,
+    SOLID,
+    SOLID_ENDS,
+    SOLID_WALL,
+    GeometryError,
+    check_distributable,
+    check_regions,
+    extent,
+    interface_normal,
+    locked_fluid_cells,
+    region_counts,
+)
 from .registry import KINDS, build_geometry
-from .shapes import (CHANNEL_HEIGHT, CHANNEL_WIDTH, DEFAULT_MAXH, DISK_CENTRE, DISK_RADIUS, elastic_tube,
-                     fluid_in_solid, fluid_over_solid, paper_channel, solid_in_fluid)
+from .shapes import (
+    CHANNEL_HEIGHT,
+    CHANNEL_WIDTH,
+    DEFAULT_MAXH,
+    DISK_CENTRE,
+    DISK_RADIUS,
+    elastic_tube,
+    fluid_in_solid,
+    fluid_over_solid,
+    paper_channel,
+    solid_in_fluid,
+)
 
 __all__ = [
-    "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS", "GeometryError",
+    "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS",
+    "GeometryError",
     "check_regions", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
     "netgen_mesh", "without_geometry", "refined",
     "CHANNEL_WIDTH", "CHANNEL_HEIGHT", "DISK_CENTRE", "DISK_RADIUS", "DEFAULT_MAXH",
     "paper_channel", "fluid_in_solid", "solid_in_fluid", "fluid_over_solid", "elastic_tube",
     "MESH_SUFFIXES", "CAD_SUFFIXES", "GMSH_CELLS", "MID_EDGES", "load_mesh", "cad",
-    "KINDS", "build_geometry",
+    "KINDS", "build_geometry", "distribute", "shared_case",
 ]

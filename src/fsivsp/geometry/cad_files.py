@@ -9,8 +9,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-import ngsolve as ngs
 import netgen.meshing as nm
+import ngsolve as ngs
 from netgen.occ import Glue, OCCGeometry
 
 from .params import CAD_SUFFIXES, dimension, existing_file, fail, one_line, path_parameter, positive

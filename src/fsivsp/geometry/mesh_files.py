@@ -9,7 +9,7 @@ from pathlib import Path
 import ngsolve as ngs
 import numpy as np
 
-from .. import quadratic
+from . import curved as quadratic
 from .params import MESH_SUFFIXES, existing_file, one_line
 from .refine import netgen_mesh
 from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions
@@ -62,7 +62,8 @@ def _gmsh_blocks(msh, path: Path) -> tuple[int, list[tuple[int, np.ndarray, list
             continue
         missing = sorted({int(t) for t in block_tags if (d, int(t)) not in names})
         if missing:
-            raise GeometryError(f"mesh file {path}: physical group {missing[0]} of dimension {d} has no name; {NAMES_HINT}")
+            raise GeometryError(f"mesh file {path}: physical group {missing[0]} of dimension {d} has no name; "
+                                f"{NAMES_HINT}")
         result.append((d, data[:, :corners], [names[d, int(t)] for t in block_tags]))
         middles += [data[:, [i, j, corners + k]] for k, (i, j) in enumerate(MID_EDGES.get(kind, []))]
     return dim, result, middles

@@ -2,10 +2,11 @@
 one-line `GeometryError` naming the field."""
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
-from ..inputs import is_number, is_whole
+from ..errors import is_number, is_whole
 from .regions import GeometryError
 
 MESH_SUFFIXES = (".msh", ".vol", ".vol.gz")
@@ -43,7 +44,8 @@ def existing_file(path: str | Path, suffixes: Sequence[str], label: str) -> tupl
     path = Path(path)
     suffix = next((s for s in suffixes if path.name.lower().endswith(s)), None)
     if suffix is None:
-        raise GeometryError(f"{label} {path}: unknown extension '{path.suffix}' (expected one of {', '.join(suffixes)})")
+        raise GeometryError(f"{label} {path}: unknown extension '{path.suffix}' "
+                            f"(expected one of {', '.join(suffixes)})")
     if not path.is_file():
         raise GeometryError(f"{label} {path}: no such file")
     return path, suffix

@@ -1,13 +1,13 @@
 """Geometry-free netgen meshes and uniform red refinement, with or without projection onto the geometry."""
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
-import ngsolve as ngs
 import netgen.meshing as nm
+import ngsolve as ngs
 import numpy as np
 
-from .. import quadratic
+from . import curved as quadratic
 from .regions import GeometryError
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import ngsolve as ngs
 import numpy as np
 
-from .. import quadratic
+from . import curved as quadratic
 
 FLUID, SOLID = "fluid", "solid"
 INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
@@ -13,7 +13,7 @@ INFLOW, OUTFLOW, SOLID_ENDS = "inflow", "outflow", "solid_ends"  # boundary part
 
 def extent(mesh: ngs.Mesh) -> tuple[np.ndarray, np.ndarray]:
     """The lowest and highest vertex coordinates of the mesh (global under MPI: rank 0 holds no vertices)."""
-    from .. import parallel
+    from ..runtime import parallel
 
     points = np.array([v.point for v in mesh.vertices], dtype=float).reshape(-1, mesh.dim)
     low = np.min(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf)), axis=0)

@@ -2,7 +2,8 @@
 validates a table and dispatches to the builder of its kind."""
 from __future__ import annotations
 
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import ngsolve as ngs
 

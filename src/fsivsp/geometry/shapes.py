@@ -2,7 +2,8 @@
 channel, a disk/ball of one medium inside the other, a fluid over a solid, an elastic tube."""
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import ngsolve as ngs
 from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z

@@ -39,18 +39,21 @@ Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
 from __future__ import annotations
 
 import functools
-import sys
+import logging
 import time
 from collections.abc import Mapping
 from typing import Any
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
+from .base import SolverError
 from .mumps import MumpsInverse
-from .sparse import SolverError, _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
+from .sparse import _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
+
+log = logging.getLogger(__name__)
 
 __all__ = ["METHODS", "DirectSolver", "available_methods", "default_method", "factorise"]
 
@@ -300,8 +303,6 @@ class DirectSolver:
 
     #: The scheme may run a solve concurrently with other work of its own (`Scheme.march`).
     overlap = True
-    #: Its solve does not run under NGSolve's TaskManager (`marching.march`).
-    threaded = False
 
     def __init__(self, matrix, freedofs: ngs.BitArray | None = None, method: str | None = None, check: bool = True,
                  rtol: float = 1e-8, options: Mapping[str, Any] | None = None, refinement: int = 0):
@@ -406,10 +407,10 @@ class DirectSolver:
 def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None = None) -> DirectSolver:
     """A checked `DirectSolver`: the given ``method``, or else the available methods in order of
     preference (pivoting ones first), taking the first whose residual check passes; PARDISO's factors are
-    refined with `RETRY_REFINEMENT_STEPS` before another method is tried (not factorised again). A method other than the first is never taken
-    silently: one line on stderr names both methods and the first one's residual, and ``solver.fallback`` (in
-    `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists every failure. A
-    distributed matrix takes `DISTRIBUTED_METHOD`, whose solves check PETSc's outcome instead."""
+    refined with `RETRY_REFINEMENT_STEPS` before another method is tried (not factorised again). A method other than the
+    first is never taken silently: one line on stderr names both methods and the first one's residual, and
+    ``solver.fallback`` (in `statistics`) records it. A singular matrix fails them all: the `SolverError` then lists
+    every failure. A distributed matrix takes `DISTRIBUTED_METHOD`, whose solves check PETSc's outcome instead."""
     if isinstance(matrix, ngs.la.ParallelMatrix):
         return DirectSolver(matrix, freedofs, method=DISTRIBUTED_METHOD, check=False)
     if method is not None:
@@ -433,8 +434,8 @@ def factorise(matrix, freedofs: ngs.BitArray | None = None, method: str | None =
             first = failures[0]
             how = candidate + (f" with {solver.refinement} refinement steps" if solver.refinement else "")
             solver.fallback = {"from": candidates[0], "to": how, "residual": first.residual, "reason": str(first)}
-            print(f"fsivsp: direct solver: {candidates[0]} failed (residual {first.residual:.2e}), "
-                  f"using {how} (residual {solver.residual:.2e})", file=sys.stderr)
+            log.warning("direct solver: %s failed (residual %.2e), using %s (residual %.2e)", candidates[0],
+                        first.residual, how, solver.residual)
         return solver
     raise SolverError("no direct solver passed the residual check (is the matrix singular?): "
                       + "; ".join(map(str, failures)))

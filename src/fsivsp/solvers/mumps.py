@@ -9,13 +9,15 @@ SPD matrices alike.
 """
 from __future__ import annotations
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 import scipy.sparse as sp
 
-from .. import parallel
+from ..runtime import parallel
+from .base import SolverError
+from .petsc_init import petsc, register, unregister
 from .petsc_layout import from_summands
-from .sparse import SolverError, free_mask, to_scipy_csr
+from .sparse import free_mask, to_scipy_csr
 
 #: PETSc's options of the factorisation (set on the objects, not in the options database).
 KSP_TYPE, PC_TYPE, SOLVER_TYPE = "preonly", "lu", "mumps"
@@ -44,9 +46,7 @@ class MumpsInverse(ngs.BaseMatrix):
 
     def __init__(self, matrix: ngs.la.ParallelMatrix, freedofs: ngs.BitArray | None, shift: float = 0.0):
         super().__init__()
-        from .petsc import _LIVE, _petsc
-
-        self.PETSc = PETSc = _petsc()
+        self.PETSc = PETSc = petsc()
         self.matrix = matrix
         local = matrix.local_mat
         free = free_mask(freedofs, local.height)
@@ -68,7 +68,7 @@ class MumpsInverse(ngs.BaseMatrix):
         self._local = PETSc.Vec().createSeq(len(self._dofs), comm=PETSc.COMM_SELF)
         self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
                                                self._local, None)
-        _LIVE.add(self)
+        register(self)
 
     def Mult(self, x: ngs.BaseVector, y: ngs.BaseVector) -> None:
         values, mode = x.FV().NumPy()[self._dofs], self.PETSc.InsertMode
@@ -88,12 +88,10 @@ class MumpsInverse(ngs.BaseMatrix):
         y.SetParallelStatus(ngs.la.PARALLEL_STATUS.CUMULATED)
 
     def destroy(self) -> None:
-        """Free the PETSc objects (`petsc._LIVE`: at exit, before PETSc finalises)."""
+        """Free the PETSc objects (at exit: `petsc_init.register`)."""
         for obj in (self.ksp, self.A, self._b, self._x, self._local, self._scatter):
             obj.destroy()
-        from .petsc import _LIVE
-
-        _LIVE.discard(self)
+        unregister(self)
 
     def IsComplex(self) -> bool:
         return False

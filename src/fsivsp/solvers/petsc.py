@@ -8,7 +8,7 @@ ranks in `petsc_layout`'s order) with two named fields:
 - ``velocity``: A⁻¹ by one BoomerAMG V-cycle on the velocity dofs ordered node by node (block size d), the rigid
   motions attached as near-nullspace (the kernel of ε, in the fluid and the solid alike);
 - ``pressure``: the Schur complement S = −C A⁻¹ Cᵀ by the corrected least-squares commutator of
-  `schur.LeastSquaresCommutator`, S⁻¹ ≈ F⁻¹ (Yᵀ A Y) F⁻¹ with Y = diag(A)⁻¹ Cᵀ and F = C Y (F⁻¹ by two BoomerAMG
+  `petsc_schur`, S⁻¹ ≈ F⁻¹ (Yᵀ A Y) F⁻¹ with Y = diag(A)⁻¹ Cᵀ and F = C Y (F⁻¹ by two BoomerAMG
   cycles), built with PETSc's sparse products; or Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + 2ν/Δt diag(M_p)⁻¹
   (``schur_approximation = "cahouet-chabard"``), or PETSc's own (``"petsc"``).
 
@@ -19,22 +19,21 @@ The Krylov method is FGMRES on the unpreconditioned residual, stopped at ``tol``
 """
 from __future__ import annotations
 
-import atexit
 import time
-import weakref
-from typing import Mapping
+from collections.abc import Mapping
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
-from .. import parallel
-from ..materials import Materials
-from ..spaces import Spaces
-from ..threads import idle
-from .sparse import SolverError, to_scipy_csr
-from .iterative import NotConverged
+from ..fem.spaces import Spaces
+from ..model.materials import Materials
+from ..runtime import parallel
+from ..runtime.threads import idle
+from .base import NotConverged
+from .petsc_init import petsc, register, unregister
 from .petsc_layout import aij, from_summands, layout
 from .petsc_schur import pressure_block
+from .sparse import to_scipy_csr
 
 PREFIX = "fsivsp_"
 
@@ -81,37 +80,6 @@ DEFAULTS_3D: dict[str, str] = {
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
 
 
-def available() -> str | None:
-    """None if petsc4py imports here, else why not (one line)."""
-    try:
-        import petsc4py  # noqa: F401
-        from petsc4py import PETSc  # noqa: F401
-    except ImportError as error:
-        return (f"petsc4py does not import ({error}): on Debian or Ubuntu 'make install' installs it "
-                "(python3-petsc4py-real); elsewhere 'conda install -c conda-forge petsc4py'")
-    return None
-
-
-#: The solvers alive: their PETSc objects are destroyed before PETSc finalises at exit (after, a destructor
-#: that reaches PETSc crashes the process).
-_LIVE: "weakref.WeakSet[PETScSolver]" = weakref.WeakSet()
-
-
-def _petsc():
-    reason = available()
-    if reason:
-        raise SolverError(f"solver: 'petsc' is unavailable: {reason}")
-    import petsc4py
-
-    if not _LIVE and not getattr(_petsc, "initialised", False):
-        petsc4py.init()
-        atexit.register(lambda: [solver.destroy() for solver in list(_LIVE)])
-        _petsc.initialised = True
-    from petsc4py import PETSc
-
-    return PETSc
-
-
 def rigid_motions(points: np.ndarray) -> np.ndarray:
     """The rigid motions at ``points`` (n × d, relative to a centre) as columns of an (n·d × m) array, node by node
     (x₁, y₁[, z₁], x₂, …): d translations and d(d−1)/2 rotations."""
@@ -133,14 +101,12 @@ class PETScSolver:
     """
 
     method = "petsc"
-    #: PETSc solves on this thread alone, not under NGSolve's TaskManager (`marching.march`).
-    threaded = False
 
     def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float,
                  maxiter: int, options: Mapping[str, object] | None = None):
         if not 0 < tol < 1:
             raise ValueError(f"tolerance: expected a number in (0, 1), got {tol!r}")
-        PETSc = _petsc()
+        PETSc = petsc()
         start = time.perf_counter()
         self.PETSc, self.tol, self.maxiter = PETSc, tol, maxiter
         self.distributed = isinstance(matrix, ngs.la.ParallelMatrix)
@@ -182,7 +148,7 @@ class PETScSolver:
         self._local = PETSc.Vec().createSeq(len(L.local), comm=PETSc.COMM_SELF)
         self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
                                                self._local, None)
-        _LIVE.add(self)
+        register(self)
         self.iterations: list[int] = []
         self.residual = float("nan")
         self.factor_seconds = time.perf_counter() - start
@@ -199,9 +165,9 @@ class PETScSolver:
         return min(times)
 
     def _set_options(self, PETSc, defaults: dict[str, str], options: Mapping[str, object]) -> dict[str, str]:
-        """Enter ``defaults`` (`DEFAULTS`, `DEFAULTS_3D`), then ``options`` (the case file's or the command line's), into PETSc's options
-        database under `PREFIX`; what the user set there already (PETSC_OPTIONS) is kept. Returns the
-        options in force."""
+        """Enter ``defaults`` (`DEFAULTS`, `DEFAULTS_3D`), then ``options`` (the case file's or the command line's),
+        into PETSc's options database under `PREFIX`; what the user set there already (PETSC_OPTIONS) is kept. Returns
+        the options in force."""
         database = PETSc.Options()
         given = {str(k).lstrip("-").removeprefix(PREFIX): v for k, v in options.items()}
         entered = []
@@ -297,13 +263,13 @@ class PETScSolver:
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
     def destroy(self) -> None:
-        """Free the PETSc objects (`_LIVE`: at exit, before PETSc finalises)."""
+        """Free the PETSc objects (at exit: `petsc_init.register`)."""
         for obj in (self.ksp, self.A, self._b, self._x, self._local, self._scatter, self._near_nullspace,
                     *self.fields, *self.keep):
             obj.destroy()
         if getattr(self, "_schur", None) is not None:
             self._schur.amg.destroy()
-        _LIVE.discard(self)
+        unregister(self)
 
     def progress(self) -> str:
         return f"PETSc {self.iterations[-1] if self.iterations else 0} its"

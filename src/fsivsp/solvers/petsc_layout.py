@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
-from .. import parallel
-from ..spaces import Spaces
+from ..fem.spaces import Spaces
+from ..runtime import parallel
 from .sparse import free_mask
 
 

@@ -1,14 +1,22 @@
 """The pressure block of `petsc.PETScSolver`'s fieldsplit: the Schur complement S = −C A⁻¹ Cᵀ of step 1's
-matrix by the corrected least-squares commutator (`schur.LeastSquaresCommutator`) or Cahouet–Chabard, as
-PETSc's Python PC, built with PETSc's sparse products from the step matrix's blocks."""
+matrix [[A, Cᵀ], [C, 0]] (C = −ΔtB), as PETSc's Python PC built with PETSc's sparse products from the blocks:
+
+- the least-squares commutator (Elman et al.), S⁻¹ ≈ F⁻¹ (Yᵀ A Y − E) F⁻¹ with Y = diag(A)⁻¹ Cᵀ and F = C Y (a
+  pressure Laplacian, F⁻¹ by BoomerAMG cycles); "corrected" for MINI's bubbles (and Taylor–Hood k = 1's edge
+  dofs), whose part Y_hᵀ A_hh Y_h of the middle factor is replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (E their
+  difference): without it the bubbles' stiffness, scaled by Δt² λ, dominates the middle factor;
+- Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + 2ν/Δt diag(M_p)⁻¹, F_ρ = C diag(ρM)⁻¹ Cᵀ: the mass's and the viscosity's
+  limits of S added.
+"""
 from __future__ import annotations
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
-from .. import forms, parallel
-from ..materials import Materials
-from ..spaces import Spaces
+from ..fem import forms
+from ..fem.spaces import Spaces
+from ..model.materials import Materials
+from ..runtime import parallel
 from .sparse import to_scipy_csr
 
 
@@ -86,7 +94,7 @@ def _laplacian(PETSc, c, diagonal):
 
 
 def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
-    """The corrected commutator (`schur.LeastSquaresCommutator`): the higher dofs' term Y_hᵀ A Y_h of the
+    """The corrected commutator (the module's docstring): the higher dofs' term Y_hᵀ A Y_h of the
     middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
     L, structure = solver.layout, solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
     scalar = spaces.velocity.ndof // spaces.mesh.dim

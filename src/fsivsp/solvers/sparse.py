@@ -1,17 +1,11 @@
-"""Sparse-matrix utilities of the solvers: NGSolve matrices as scipy CSR and back, the free dofs as a mask,
-a symmetry test, and `SolverError`, which the solvers raise."""
+"""Sparse-matrix utilities of the solvers: NGSolve matrices as scipy CSR and back, the free dofs as a mask (and a
+mask as a BitArray), a symmetry test."""
 from __future__ import annotations
 
-import numpy as np
 import ngsolve as ngs
+import numpy as np
 
-
-class SolverError(RuntimeError):
-    """A factorisation that failed or whose residual check did not pass (``residual``: NaN if none)."""
-
-    def __init__(self, message: str, residual: float = float("nan")):
-        super().__init__(message)
-        self.residual = residual
+from .base import SolverError
 
 
 def free_mask(freedofs: ngs.BitArray | None, n: int) -> np.ndarray:
@@ -123,3 +117,12 @@ def _symmetrise_lower(lower):
     lower = sp.tril(lower).tocsr()
     full = lower + sp.tril(lower, -1).T
     return full.tocsr()
+
+
+def bits(mask: np.ndarray) -> ngs.BitArray:
+    """A boolean numpy mask as an NGSolve BitArray."""
+    array = ngs.BitArray(len(mask))
+    array.Clear()
+    for i in np.flatnonzero(mask):
+        array.Set(int(i))
+    return array

@@ -6,10 +6,10 @@ import re
 from collections.abc import Mapping
 from dataclasses import InitVar, dataclass, field
 
-from .. import parallel
-from ..inputs import CaseError, expected, is_number, is_whole
+from ..errors import CaseError, expected, is_number, is_whole
+from ..runtime import parallel
+from .base import MAX_ITERATIONS, TOLERANCE
 from .direct import available_methods
-from .iterative import MAX_ITERATIONS, TOLERANCE
 
 PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
 

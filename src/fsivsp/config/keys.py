@@ -1,0 +1,122 @@
+"""Every key of a case file, documented once: docs/cases.md is rendered from `KEYS` (`markdown`), and the tests
+check that every key a reader accepts is here (tests/config/test_keys.py), so the page cannot drift."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Key:
+    """One row of the table: ``names`` of ``section`` (``boundary.NAME`` for a boundary's), their ``default`` and
+    ``meaning`` (Markdown; links relative to docs/)."""
+
+    section: str
+    names: tuple[str, ...]
+    default: str
+    meaning: str
+
+
+#: The keys in the order the page shows them.
+KEYS: list[Key] = [
+    Key('geometry', ('kind',), 'required',
+        '`paper_channel`, `fluid_in_solid`, `solid_in_fluid`, `fluid_over_solid`, `elastic_tube`, `mesh`, `cad`'),
+    Key('geometry', ('dim',), '2',
+        '2 or 3 (`paper_channel`: 2)'),
+    Key('geometry', ('maxh',), 'by kind',
+        'mesh size: 0.15 `paper_channel`; 0.1 in 2D, 0.2 in 3D (0.3 for `elastic_tube`); `cad`: a tenth of the '
+        'bounding box; not for `mesh`'),
+    Key('geometry', ('refine',), '0',
+        '`run` only: uniform refinements (0–6) of the mesh, new nodes on the true geometry if `curved` (`study` '
+        'refines by `--levels`)'),
+    Key('geometry', ('grading',), '0.3',
+        "`paper_channel`: netgen's grading, in (0, 1]"),
+    Key('geometry', ('size', 'radius', 'centre', 'curvature_safety'), '1, 0.25, the middle, 2',
+        '`fluid_in_solid`, `solid_in_fluid`: a disk/ball of `radius` in the square/cube (0, `size`)^d'),
+    Key('geometry', ('width', 'solid_height', 'fluid_height'), '1, 0.5, 0.5',
+        '`fluid_over_solid`: fluid box on a solid box'),
+    Key('geometry', ('radius', 'length', 'wall'), '0.5, 5, 0.1',
+        '`elastic_tube`: fluid cylinder along x in a solid wall; boundaries `inflow`, `outflow`, `solid_ends`'),
+    Key('geometry', ('path', 'regions'), 'required, none',
+        "relative to the case file's folder; `mesh`: a gmsh `.msh` (2.2/4.x; second-order cells curve the mesh) or "
+        'netgen `.vol` file; `cad`: a STEP, BREP or IGES file, `regions` (cad only) maps its parts to '
+        '`fluid`/`solid` ([docs/meshes.md](meshes.md))'),
+    Key('materials', ('rho_fluid', 'rho_solid'), 'required',
+        'densities ρ_F, ρ_S > 0'),
+    Key('materials', ('nu',), 'required',
+        'the dynamic viscosity ν > 0 (Pa·s in SI; not ν/ρ): σ_F = −pI + 2ν ε(v) '
+        '([docs/commands.md](commands.md#units-and-the-viscosity))'),
+    Key('materials', ('lam', 'mu'), 'required',
+        'Lamé constants, μ > 0, λ > −2μ/d: σ_S = λ tr ε(u) I + 2μ ε(u)'),
+    Key('materials', ('young', 'poisson'), '—',
+        '`run` only, instead of `lam`, `mu`: E > 0, −1 < ν_P < 1/2'),
+    Key('time', ('T', 'dt'), 'required',
+        'final time and step, 0 < dt ≤ T'),
+    Key('time', ('scheme',), '`"backward_euler"`',
+        'the paper\'s (5.1), or `"theta"`, `"bdf2"`: second order, still one matrix per run '
+        '([docs/time_schemes.md](time_schemes.md))'),
+    Key('time', ('theta',), '0.5',
+        '`scheme = "theta"` only: θ in [1/2, 1]; 1/2 is Crank–Nicolson'),
+    Key('discretisation', ('family',), '`"mini"`',
+        'or `"taylor_hood"`'),
+    Key('discretisation', ('order',), '1',
+        'Taylor–Hood k = 1, 2, 3 (MINI: 1)'),
+    Key('discretisation', ('initial_stress',), '`"displacement"`',
+        'σ⁰ from the interpolated displacement, or `"projection"`: the L² projection (26)'),
+    Key('discretisation', ('initial_velocity',), '`"interpolation"`',
+        'or `"projection"`: (22)–(23), discretely divergence-free'),
+    Key('discretisation', ('curved',), 'true',
+        'isoparametric cells and projected refinement; 3D balls need `curvature_safety` ≥ 2 '
+        '([docs/verification.md](verification.md))'),
+    Key('discretisation', ('solver',), '`"auto"`',
+        '`"direct"`, `"iterative"`, `"petsc"`, `"pardiso"`, `"umfpack"`, `"sparsecholesky"`, `"scipy"`; under mpirun'
+        ' `"auto"`, `"petsc"`, `"direct"` (MUMPS), `"iterative"` ([docs/solvers.md](solvers.md))'),
+    Key('discretisation', ('tolerance',), '1e-12',
+        "the iterative solver's relative tolerance, in (0, 1)"),
+    Key('discretisation', ('max_iterations',), '2000',
+        'per step; beyond it the command stops with exit code 3'),
+    Key('discretisation', ('threads',), 'the cores',
+        "threads for assembly, set-up and solves (NGSolve's TaskManager, MKL): by default `FSIVSP_THREADS` if set, "
+        'else the cores this process may use, divided among the MPI ranks on the node, and one thread for a problem '
+        'below 50 000 free unknowns per rank (where more do not pay); `--threads N` on `run`, `study`, `paper`, '
+        '`matrix` overrides it; bit-identical runs for a given count ([docs/solvers.md](solvers.md#threads))'),
+    Key('solver', ('petsc',), 'none',
+        'a table of PETSc options for `solver = "petsc"` (or `"iterative"`), without the leading dash, e.g. '
+        '`ksp_monitor = true`, `fieldsplit_velocity_pc_type = "gamg"` ([solvers.md](solvers.md#petsc))'),
+    Key('exact', ('velocity', 'pressure', 'displacement'), 'required',
+        '`study` only: the exact v, p, u (∂t u = v is checked)'),
+    Key('data', ('force_fluid', 'force_solid', 'velocity0', 'displacement0'), 'zero',
+        '`run` only: body forces and initial data'),
+    Key('boundary.NAME', ('velocity', 'traction'), 'rest on `fluid_wall`, `solid_wall`; else traction-free',
+        '`run` only: Dirichlet v, or σn'),
+    Key('output', ('every',), '10',
+        '`run` only: VTK output every so many steps'),
+    Key('output', ('probes', 'lines'), 'none',
+        'points (every step); `{ start = [...], end = [...], n = 20 }`'),
+    Key('output', ('vtk', 'subdivision'), 'true, 0',
+        'write VTU files; their subdivision, 0–3'),
+    Key('output', ('continuous',), 'false',
+        'one VTU point per mesh vertex (fields averaged over the cells where they live) instead of a copy per cell'),
+    Key('checkpoint', ('every',), '50',
+        '`run` only: steps between checkpoints'),
+]
+
+
+#: The sections' titles on the page.
+SECTIONS = {"geometry": "[geometry]", "materials": "[materials]", "time": "[time]",
+            "discretisation": "[discretisation]", "solver": "[solver.petsc]", "exact": "[exact]", "data": "[data]",
+            "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]"}
+
+
+def names(section: str) -> set[str]:
+    """The keys of ``section`` documented here."""
+    return {name for key in KEYS if key.section == section for name in key.names}
+
+
+def markdown() -> str:
+    """The table of docs/cases.md: one row per `Key`, each section's title on its first row."""
+    rows, seen = ["| key | default | meaning |", "|---|---|---|"], set()
+    for key in KEYS:
+        title = "" if key.section in seen else f"**{SECTIONS[key.section]}** "
+        seen.add(key.section)
+        rows.append(f"| {title}{', '.join(f'`{name}`' for name in key.names)} | {key.default} | {key.meaning} |")
+    return "\n".join(rows)

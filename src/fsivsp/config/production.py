@@ -1,0 +1,158 @@
+"""Run case files (``fsivsp run CASE.toml``): every field read and validated before any heavy work
+(`load_run_case`) into a `RunCase`, and its boundary conditions (`boundary_conditions`).
+
+Case file sections: ``[geometry]`` (with ``refine``: uniform refinements), ``[materials]`` (lam/mu or young/poisson),
+``[time]``, ``[discretisation]`` (family, order, solver, tolerance, max_iterations, curved, initial_stress,
+initial_velocity), ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
+``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
+velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
+lines, vtk, subdivision, continuous) and ``[checkpoint]`` (every).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import CaseError, is_number, is_whole
+from ..geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
+from ..model.expressions import ExpressionError, parse_vector
+from ..model.fields import Field
+from .case import Case, build_mesh, read_case
+from .overrides import case_document
+from .readers import check_command, check_keys, section
+
+RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
+DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
+OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk", "continuous"}
+CHECKPOINT_KEYS = {"every"}
+#: ``[boundary.NAME]``: one of them, a vector of d expressions
+BOUNDARY_KEYS = {"velocity", "traction"}
+#: ``[geometry] refine``: uniform refinements of the generated or read mesh (each multiplies the cells by 2^d)
+MAX_REFINE = 6
+
+
+@dataclass(kw_only=True)
+class RunCase(Case):
+    """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
+    and refined at load), data, boundaries, output and checkpoints."""
+
+    dim: int
+    data: dict[str, list]
+    boundaries: dict[str, tuple[str, list]]
+    output: dict[str, Any]
+    checkpoint_every: int
+    mesh: Any = field(default=None, repr=False)
+    overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
+
+
+def _whole(table: dict, key: str, where: str, default: int) -> int:
+    value = table.get(key, default)
+    if not is_whole(value):
+        raise CaseError(f"{where}.{key}: expected a positive whole number, got {value!r}")
+    return value
+
+
+def _vector(value, field_name: str, dim: int) -> list:
+    try:
+        return parse_vector(value, field_name, dim)
+    except ExpressionError as error:
+        raise CaseError(str(error)) from None
+
+
+def _points(value, field_name: str, dim: int) -> list[tuple[float, ...]]:
+    if not isinstance(value, list):
+        raise CaseError(f"{field_name}: expected a list of points, got {value!r}")
+    points = []
+    for i, point in enumerate(value):
+        if (not isinstance(point, list) or len(point) != dim
+                or not all(is_number(c) for c in point)):
+            raise CaseError(f"{field_name}[{i}]: expected a point of {dim} numbers, got {point!r}")
+        points.append(tuple(float(c) for c in point))
+    return points
+
+
+def _flag(table: dict, key: str, default: bool) -> bool:
+    value = table.get(key, default)
+    if not isinstance(value, bool):
+        raise CaseError(f"output.{key}: expected true or false, got {value!r}")
+    return value
+
+
+def read_output(table: dict, dim: int) -> dict[str, Any]:
+    check_keys(table, OUTPUT_KEYS, "output")
+    lines = []
+    for i, line in enumerate(table.get("lines", [])):
+        if not isinstance(line, dict) or set(line) - {"start", "end", "n"} or not {"start", "end"} <= set(line):
+            raise CaseError(f"output.lines[{i}]: expected {{start = [...], end = [...], n = N}}, got {line!r}")
+        start, end = _points([line["start"], line["end"]], f"output.lines[{i}]", dim)
+        lines.append((start, end, _whole(line, "n", f"output.lines[{i}]", 20)))
+    vtk, continuous = (_flag(table, key, default) for key, default in (("vtk", True), ("continuous", False)))
+    subdivision = table.get("subdivision", 0)
+    if not is_whole(subdivision, 0, 3):
+        raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
+    return {"every": _whole(table, "every", "output", 10),
+            "probes": _points(table.get("probes", []), "output.probes", dim),
+            "lines": lines, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
+
+
+def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
+    boundaries = {}
+    for name, spec in table.items():
+        where = f"boundary.{name}"
+        if not isinstance(spec, dict):
+            raise CaseError(f"{where}: expected a table [boundary.{name}] with velocity or traction, got {spec!r}")
+        check_keys(spec, BOUNDARY_KEYS, where)
+        if len(spec) != 1:
+            raise CaseError(f"{where}: expected exactly one of velocity = [...] or traction = [...]")
+        kind, value = next(iter(spec.items()))
+        boundaries[name] = (kind, _vector(value, f"{where}.{kind}", dim))
+    return boundaries
+
+
+def check_boundaries(boundaries: dict, mesh) -> None:
+    present = set(mesh.GetBoundaries())
+    for name in boundaries:
+        if name == INTERFACE:
+            raise CaseError("boundary.interface: the interface is not a boundary (its conditions are built in)")
+        if name not in present:
+            names = ", ".join(sorted(present - {INTERFACE}))
+            raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
+
+
+def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
+    """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
+    {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
+    path, doc = case_document(source, overrides)
+    check_command(doc, path, "run")
+    check_keys(doc, RUN_SECTIONS, "")
+    fields, dim = read_case(doc, path, young_allowed=True)
+    data_table = section(doc, "data", required=False)
+    check_keys(data_table, DATA_KEYS, "data")
+    data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
+    boundaries = read_boundaries(section(doc, "boundary", required=False), dim)
+    output = read_output(section(doc, "output", required=False), dim)
+    checkpoint_table = section(doc, "checkpoint", required=False)
+    check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
+    every = _whole(checkpoint_table, "every", "checkpoint", 50)
+    refine = fields["geometry"].get("refine", 0)
+    if not is_whole(refine, 0, MAX_REFINE):
+        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
+    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
+    if refine:
+        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
+    check_boundaries(boundaries, mesh)
+    return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
+
+
+def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
+    """Dirichlet and traction data per boundary; walls default to rest, other boundaries to σn = 0."""
+    present = set(case.mesh.GetBoundaries())
+    velocity, traction = {}, {}
+    for name in (FLUID_WALL, SOLID_WALL):
+        if name in present and name not in case.boundaries:
+            velocity[name] = Field([0] * case.dim)
+    for name, (kind, value) in case.boundaries.items():
+        (velocity if kind == "velocity" else traction)[name] = Field(value)
+    return velocity, traction

@@ -1,0 +1,218 @@
+"""Convergence studies: one case, a sequence of uniformly refined meshes, errors and rates (76)."""
+from __future__ import annotations
+
+import math
+import time as clock
+from dataclasses import replace
+
+import ngsolve as ngs
+import numpy as np
+
+from ..config.case import Case
+from ..fem.forms import elastic_stress
+from ..fem.spaces import Spaces, base_order, build_spaces
+from ..geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, distribute, refined, region_counts
+from ..geometry.curved import curve
+from ..model.data import INITIAL_STRESS, Data
+from ..model.fields import Field
+from ..model.manufactured import ExactSolution
+from ..model.materials import Materials
+from ..runtime import parallel
+from ..runtime.progress import tqdm
+from ..timestepping.scheme import Scheme
+from .norms import ErrorNorm, NormGroup, component, h1_component, l2, rigid_motions
+
+
+def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
+    """Γ_F ∪ Γ_S as present in the mesh (either may be empty)."""
+    present = set(mesh.GetBoundaries())
+    return "|".join(name for name in (FLUID_WALL, SOLID_WALL) if name in present)
+
+
+def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, initial_stress: str,
+                      initial_velocity: str = "interpolation") -> Data:
+    """All data of the model derived from the exact solution (see `manufactured`)."""
+    if initial_stress not in INITIAL_STRESS:
+        raise ValueError(f"initial_stress: expected one of {', '.join(INITIAL_STRESS)}, got {initial_stress!r}")
+    return Data(
+        velocity0=Field(exact.at_time(0).velocity),
+        pressure0=Field(exact.at_time(0).pressure),
+        initial_velocity=initial_velocity,
+        displacement0=Field(exact.at_time(0).displacement) if initial_stress == "displacement" else None,
+        stress0=Field(exact.at_time(0).solid_stress(mat)) if initial_stress == "projection" else None,
+        force_fluid=Field(exact.fluid_force(mat)),
+        force_solid=Field(exact.solid_force(mat)),
+        boundary_velocity={dirichlet: Field(exact.velocity)} if dirichlet else {},
+        interface_load=Field(exact.interface_load(mat)),
+    )
+
+
+class Errors:
+    """The norms of Section 5.3 at one time: v_j in H¹(Ω), p in L²(Ω_F), σ in L²(Ω_S).
+    The unknowns of X_h = V_h × Q_h share one Gram product per evaluation (`NormGroup`); σ_h = σ*_h + Cε(u_h)
+    is measured on the scheme's displacement u_h (Gram matrix of Cε on the solid, `ErrorNorm` with an offset)."""
+
+    def __init__(self, scheme: Scheme, exact: ExactSolution):
+        spaces, mat = scheme.spaces, scheme.materials
+        d = spaces.mesh.dim
+        intorder, bonus = self.intorder(spaces), spaces.bonus_intorder
+        mixed = {f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder,
+                                        bonus)
+                 for j in range(d)}
+        mixed["p"] = self.pressure(spaces, exact)
+        self.mixed = NormGroup(mixed)
+        strain = [(SOLID, lambda u: elastic_stress(u, mat, d), lambda e: e)]
+        self.stress = ErrorNorm(spaces.mixed, component(0), strain, exact.solid_stress(mat), intorder, bonus,
+                                offset=scheme.stress_offset, kernel=rigid_motions(spaces.mixed, component(0), SOLID))
+
+    @staticmethod
+    def intorder(spaces: Spaces) -> int:
+        """Quadrature order for the exact fields."""
+        return 2 * spaces.velocity_order + 2
+
+    @classmethod
+    def pressure(cls, spaces: Spaces, exact: ExactSolution) -> ErrorNorm:
+        """‖p − p_h‖_{L²(Ω_F)} alone, for X_h's coefficient vectors."""
+        return ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, cls.intorder(spaces),
+                         spaces.bonus_intorder)
+
+    def __call__(self, scheme: Scheme) -> dict[str, float]:
+        errors = self.mixed(scheme.state.vec, scheme.time)
+        errors["sigma"] = self.stress(scheme.carried.vec, scheme.time)
+        return errors
+
+
+def paper_dofs(counts: dict[str, int]) -> int:
+    """The paper's dof count: 2·(vertices not on ∂Ω) + 2·(fluid triangles) + (fluid vertices)."""
+    return 2 * (counts["vertices"] - counts["boundary_vertices"]) + 2 * counts["fluid_cells"] + counts["fluid_vertices"]
+
+
+def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
+    """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
+    check_regions(mesh)
+    disc = case.discretisation
+    if disc.curved:
+        curve(mesh, base_order(disc.family, disc.order))
+    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh))
+    data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), disc.initial_stress,
+                             disc.initial_velocity)
+    scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
+    return scheme, Errors(scheme, case.exact)
+
+
+def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
+    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings). Under mpirun
+    ``mesh`` is rank 0's whole mesh (None on the others), distributed here."""
+    start = clock.perf_counter()
+    counts, h = parallel.shared(lambda: (region_counts(mesh), max_edge_length(mesh)))
+    scheme, errors_at = discretise(case, distribute(mesh))
+    spaces = scheme.spaces
+    setup = clock.perf_counter() - start
+    squares: dict[str, float] = {}
+
+    def accumulate(scheme: Scheme) -> None:
+        for name, error in errors_at(scheme).items():
+            squares[name] = squares.get(name, 0.0) + case.dt * error**2
+        bar.update(1)
+
+    start = clock.perf_counter()
+    with tqdm(total=case.steps, desc=f"level {level}", leave=False, disable=quiet, unit="step") as bar:
+        scheme.march(case.steps, accumulate)
+    loop = clock.perf_counter() - start
+    errors = {name: math.sqrt(value) for name, value in squares.items()}
+    errors["total"] = math.sqrt(sum(squares.values()))
+    solver = scheme.solver.statistics()
+    return {
+        "level": level,
+        "vertices": counts["vertices"],
+        "h": h,
+        "dofs": spaces.free_dofs(),
+        "paper_dofs": paper_dofs(counts) if spaces.mesh.dim == 2 else None,
+        "counts": counts,
+        "errors": errors,
+        "solver": scheme.solver.method,
+        "residual": scheme.solver.residual,
+        "iterations": solver.get("iterations"),
+        "preconditioner": solver.get("preconditioner"),
+        "fallback": solver.get("fallback"),
+        "seconds": {
+            "assembly": setup - scheme.solver.factor_seconds,
+            "factorisation": scheme.solver.factor_seconds,
+            "time_loop": loop,
+        },
+    }
+
+
+def max_edge_length(mesh: ngs.Mesh) -> float:
+    """h: the longest edge of an active cell (simplices). Not ``mesh.edges``: a netgen-refined mesh keeps
+    its parents' edges there, so h would stay the coarse mesh's."""
+    ngmesh = mesh.ngmesh
+    cells = (ngmesh.Elements2D() if mesh.dim == 2 else ngmesh.Elements3D()).NumPy()["nodes"][:, :mesh.dim + 1] - 1
+    points = np.asarray(ngmesh.Coordinates())[:, :mesh.dim][cells]          # cells × corners × dim
+    i, j = np.triu_indices(mesh.dim + 1, 1)
+    return float(np.linalg.norm(points[:, i] - points[:, j], axis=-1).max())
+
+
+def rates(records: list[dict], dim: int) -> None:
+    """Add the rate (76), r = −d log(e_fine/e_coarse) / log(N_fine/N_coarse), to each record (None on the first)."""
+    previous = None
+    for record in records:
+        if previous is None or previous["level"] != record["level"] - 1:
+            record["rates"] = dict.fromkeys(record["errors"])
+        else:
+            ratio = math.log(record["vertices"] / previous["vertices"])
+            record["rates"] = {
+                name: (-dim * math.log(e / previous["errors"][name]) / ratio
+                       if e > 0 and previous["errors"][name] > 0 else None)
+                for name, e in record["errors"].items()
+            }
+        previous = record
+
+
+def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
+    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh (made on rank 0 under
+    mpirun, and distributed level by level)."""
+    coarse = parallel.on_root(case.coarse_mesh)
+    records = []
+    for level in tqdm(levels, desc=case.name, disable=quiet, unit="level"):
+        mesh = parallel.on_root(refined, coarse, level, case.discretisation.project_refinement)
+        records.append(run_level(case, mesh, level, quiet))
+    rates(records, parallel.shared(lambda: coarse.dim))
+    return records
+
+
+def time_rates(records: list[dict]) -> None:
+    """Add the rate in Δt, r = log(e_coarse/e_fine) / log(Δt_coarse/Δt_fine), to each record (None on the first)."""
+    previous = None
+    for record in records:
+        if previous is None:
+            record["rates"] = dict.fromkeys(record["errors"])
+        else:
+            ratio = math.log(previous["dt"] / record["dt"])
+            record["rates"] = {
+                name: (math.log(previous["errors"][name] / e) / ratio
+                       if e > 0 and previous["errors"][name] > 0 else None)
+                for name, e in record["errors"].items()
+            }
+        previous = record
+
+
+def check_time_steps(steps: list[float]) -> list[float]:
+    """``steps`` if they are finite, positive and strictly decreasing, else ValueError."""
+    if (not steps or not all(math.isfinite(dt) and dt > 0 for dt in steps)
+            or any(b >= a for a, b in zip(steps, steps[1:]))):
+        raise ValueError(f"dt: expected positive, strictly decreasing time steps, got {steps}")
+    return steps
+
+
+def time_study(case: Case, level: int, steps: list[float], quiet: bool = True) -> list[dict]:
+    """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing)."""
+    check_time_steps(steps)
+    mesh = refined(case.coarse_mesh(), level, project=case.discretisation.project_refinement)
+    records = []
+    for dt in tqdm(steps, desc=case.name, disable=quiet, unit="dt"):
+        record = run_level(replace(case, dt=dt), mesh, level, quiet)
+        record["dt"] = dt
+        records.append(record)
+    time_rates(records)
+    return records

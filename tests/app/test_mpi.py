@@ -1,0 +1,335 @@
+"""MPI-distributed runs (docs/mpi.md): ``mpirun -np 2 fsivsp ...`` gives the serial run's numbers, and bad input
+ends every rank with exit 2 and one line. A hung rank fails its test by pytest-timeout (pyproject's `timeout`), which
+ends mpirun."""
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+from support.cases import MPIRUN, TUBE, mpirun, needs_mpi
+
+from fsivsp.app.cli import main
+from fsivsp.runtime import parallel
+
+ROOT = Path(__file__).resolve().parents[2]
+RELATIVE = 1e-6
+
+
+
+
+#: The 3D solid ball in a fluid box of examples/solid_in_fluid_3d.toml (curved), loaded in both media.
+BALL = (ROOT / "examples" / "solid_in_fluid_3d.toml").read_text().split("[discretisation]")[0] + """
+[data]
+force_fluid = ["sin(pi*y)*t", "0", "0"]
+force_solid = ["0", "x", "0"]
+
+[output]
+vtk = false
+"""
+
+
+
+
+def assert_close(serial: dict, distributed: dict, where: str) -> None:
+    for name, value in serial.items():
+        assert distributed[name] == pytest.approx(value, rel=RELATIVE, abs=1e-300), f"{where}: {name}"
+
+
+def test_serial_helpers_are_identities():
+    """Without mpirun nothing imports MPI and the helpers do the serial thing."""
+    assert parallel.world() is None and parallel.size() == 1 and parallel.is_root()
+    assert parallel.shared(lambda a: a + 1, 1) == 2 and parallel.on_root(lambda: 3) == 3
+    assert parallel.settle(5) == 5 and parallel.gather(7) == [7]
+
+
+@needs_mpi
+@pytest.mark.parametrize("text, family, solver, ranks", [
+    (BALL, None, "iterative", 2), (TUBE, "mini", None, 2), (BALL, None, "petsc", 3), (TUBE, "mini", "direct", 2)],
+    ids=["ball-3d-iterative", "tube-2d-auto-petsc", "ball-3d-petsc-3-ranks", "tube-2d-mumps"])
+def test_run_equals_serial(tmp_path, text, family, solver, ranks):
+    """``fsivsp run`` on 2 (3) ranks: the same counts, energies at every step and final L² norms as the serial
+    run; PETSc's solvers over all ranks (rank 0 too) by default and with ``"iterative"``, ``"petsc"`` or ``"direct"``
+    (MUMPS)."""
+    case = tmp_path / "case.toml"
+    text = text.format(family=family)
+    if solver:
+        text = (text.replace("[discretisation]", f'[discretisation]\nsolver = "{solver}"', 1)
+                if "[discretisation]" in text else text + f'\n[discretisation]\nsolver = "{solver}"\n')
+    case.write_text(text)
+    assert main(["run", str(case), "--out", str(tmp_path / "serial"), "--quiet"]) == 0
+    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet", ranks=ranks)
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
+    assert distributed["solver"]["method"] == "petsc"
+    assert distributed["ranks"]["size"] == ranks
+    assert (distributed["mesh"], distributed["dofs"]) == (serial["mesh"], serial["dofs"])
+    assert_close(serial["l2_norms"], distributed["l2_norms"], "L² norm")
+    assert_close(dict(enumerate(serial["energy"]["energy"])), dict(enumerate(distributed["energy"]["energy"])),
+                 "energy at step")
+    for table in ("probes.csv", "lines.csv") if "probes" in text else ():  # each point evaluated on one rank
+        expected, got = (np.genfromtxt(tmp_path / name / table, delimiter=",", skip_header=1, ndmin=2)
+                         for name in ("serial", "mpi"))
+        scale = np.nanmax(np.where(np.isnan(expected), 0.0, np.abs(expected)), axis=0)  # per column
+        close = np.isclose(got, expected, rtol=RELATIVE, atol=0.0, equal_nan=True) \
+            | (np.abs(got - expected) <= RELATIVE * scale)  # NaN: the pressure at a point in the solid
+        assert close.all(), f"{table}: rows, columns {np.argwhere(~close)[:5].tolist()}"
+    if "every = 5" in text:  # one piece per rank with cells (rank 0 has none), all cells, the same largest values
+        whole = meshio.read(tmp_path / "serial" / "vtk" / "fields_000005.vtu")
+        pieces = [meshio.read(tmp_path / "mpi" / "vtk" / "fields_000005_proc1.vtu")]
+        assert "fields_000005_proc1.vtu" in (tmp_path / "mpi" / "vtk" / "fields.pvd").read_text()
+        assert sum(len(c.data) for p in pieces for c in p.cells) == sum(len(c.data) for c in whole.cells)
+        for name, values in whole.point_data.items():
+            assert max(abs(p.point_data[name]).max() for p in pieces) == pytest.approx(abs(values).max(), rel=RELATIVE)
+
+
+#: Solves with an SPD and a singular (Neumann) Gram matrix by `solvers.symmetric` on the unit square (serial or
+#: distributed), printed by rank 0 as kernel-free integrals of the solutions.
+SYMMETRIC = """
+import json
+import numpy as np
+import ngsolve as ngs
+from netgen.geom2d import unit_square
+from fsivsp.runtime import parallel
+from fsivsp.geometry import distribute
+from fsivsp.solvers.sparse import bits
+from fsivsp.solvers.symmetric import symmetric_solver
+
+mesh = distribute(parallel.on_root(lambda: ngs.Mesh(unit_square.GenerateMesh(maxh=0.1))))
+space = ngs.H1(mesh, order=2)
+u, w = space.TnT()
+constants = np.zeros((space.ndof, 1))
+constants[:mesh.nv] = 1.0  # the vertex dofs come first
+results = {}
+for name, mass in (("spd", 1.0), ("singular", 0.0)):
+    gram = ngs.BilinearForm(space, symmetric=True)
+    gram += (mass * u * w + ngs.grad(u) * ngs.grad(w)) * ngs.dx
+    load = ngs.LinearForm((ngs.x - 0.5) * w * ngs.dx).Assemble()
+    kernel = (constants / np.linalg.norm(constants), slice(None)) if mass == 0 else None
+    solve = symmetric_solver(gram.Assemble().mat, bits(np.ones(space.ndof, dtype=bool)), kernel)
+    gf = ngs.GridFunction(space)
+    solve(load.vec, gf.vec)
+    results[name] = [ngs.Integrate(ngs.grad(gf) * ngs.grad(gf), mesh), ngs.Integrate(gf.Deriv()[0], mesh)]
+if parallel.is_root():
+    print(json.dumps(results))
+"""
+
+
+@needs_mpi
+def test_symmetric_solves_equal_serial(tmp_path):
+    """`solvers.symmetric` (the error norms' Gram matrices) on 2 ranks, MUMPS
+    (`solvers.mumps`): the solutions of the serial factorisation to 1e-12 (measured: 2.5e-15)."""
+    script = tmp_path / "symmetric.py"
+    script.write_text(SYMMETRIC)
+    serial = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                            env=dict(os.environ, PYTHONPATH=str(ROOT / "src")))
+    done = mpirun(str(script), program=())
+    assert serial.returncode == 0 and done.returncode == 0, serial.stderr + done.stderr
+    expected, got = json.loads(serial.stdout), json.loads(done.stdout)
+    for name, values in expected.items():
+        assert got[name] == pytest.approx(values, rel=1e-12), name
+
+
+@needs_mpi
+def test_initial_projection_equals_serial(tmp_path):
+    """v⁰_h by the projections (22)–(23), factorised by MUMPS over 2 ranks (`solvers.mumps`): the energies at every
+    step (step 0 is the projection's) and the final L² norms as serially, to 1e-10 (measured: 9e-12, the step
+    solver's tolerance)."""
+    case = tmp_path / "case.toml"
+    projected = 'family = "mini"\ninitial_velocity = "projection"'
+    case.write_text(TUBE.format(family="mini").replace('family = "mini"', projected)
+                    + '\n[data]\nvelocity0 = ["x*(2 - x)", "0.1*x"]\n')
+    assert main(["run", str(case), "--out", str(tmp_path / "serial"), "--quiet"]) == 0
+    done = mpirun("run", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
+    assert serial["energy"]["energy"][0] > 0
+    assert distributed["energy"]["energy"] == pytest.approx(serial["energy"]["energy"], rel=1e-10)
+    for name, value in serial["l2_norms"].items():
+        assert distributed["l2_norms"][name] == pytest.approx(value, rel=1e-10), name
+
+
+@needs_mpi
+@pytest.mark.parametrize("command", [["paper", "--dt", "0.1", "--levels", "0-2"],
+                                     ["study", str(ROOT / "examples" / "fluid_over_solid_2d.toml"), "--levels", "0-1"]],
+                         ids=["paper", "study-2d"])
+def test_errors_equal_serial(tmp_path, command):
+    """The paper's experiment (levels 0–2) and a 2D Taylor–Hood study on 2 ranks: every error norm as in the serial
+    run."""
+    assert main([*command, "--json", str(tmp_path / "serial.json"), "--quiet"]) == 0
+    done = mpirun(*command, "--json", str(tmp_path / "mpi.json"), "--quiet")
+    assert done.returncode == 0, done.stderr
+    serial, distributed = (json.loads((tmp_path / name).read_text()) for name in ("serial.json", "mpi.json"))
+    assert [r["level"] for r in distributed] == [r["level"] for r in serial]
+    for s, d in zip(serial, distributed):
+        assert d["solver"] == "petsc" and (d["vertices"], d["dofs"]) == (s["vertices"], s["dofs"])
+        assert_close(s["errors"], d["errors"], f"level {s['level']}")
+
+
+@needs_mpi
+@pytest.mark.parametrize("old, new, args, message", [
+    ("[boundary.solid_ends]", "[boundary.nowhere]", [],  # found while meshing, on rank 0 only
+     "error: boundary.nowhere: no boundary of that name"),
+    ('family = "mini"', 'family = "mini"\nsolver = "umfpack"', [],
+     "error: discretisation.solver: 'umfpack' does not run under mpirun"),
+    ("probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]", "probes = [[0.5, 0.0], [10.0, 0.0]]", [],
+     "error: probe 1 at (10, 0) is outside the mesh; expected a point in its bounding box"),
+], ids=["boundary", "serial-direct-solver", "probe-outside"])
+def test_bad_input_ends_every_rank(tmp_path, old, new, args, message):
+    """Exit 2 (mpirun's code: every rank's), the error printed once, no rank left running (a rank left would hang
+    mpirun: pytest-timeout fails it)."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace(old, new))
+    done = mpirun("run", str(case), "--out", str(tmp_path / "out"), *args)
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and ours[0].startswith(message), done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@needs_mpi
+def test_petsc_not_converging_ends_every_rank(tmp_path):
+    """PETSc over 2 ranks stopped after 2 iterations: exit 3 on every rank, one line naming the solver."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace('family = "mini"',
+                                                       'family = "mini"\nsolver = "petsc"\nmax_iterations = 2'))
+    done = mpirun("run", str(case), "--out", str(tmp_path / "out"))
+    assert done.returncode == 3, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and "petsc: fgmres did not reach the tolerance" in ours[0], done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_probe_outside_the_mesh_serial(tmp_path, capsys):
+    """The same probe serially: one line naming it and the mesh's bounding box, exit 2."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("probes = [[0.5, 0.0], [1.0, 0.0], [1.0, 0.55]]",
+                                                       "probes = [[0.5, 0.0], [10.0, 0.0]]"))
+    assert main(["run", str(case), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: probe 1 at (10, 0) is outside the mesh; expected a point in "
+                                               "its bounding box ["), err
+
+
+@needs_mpi
+def test_resume_equals_uninterrupted(tmp_path):
+    """2 ranks: a run stopped after step 3 (checkpoint at step 2) and resumed to step 5 ends as the uninterrupted
+    run, to 1e-10; resuming it on 3 ranks or serially is refused in one line."""
+    text = TUBE.format(family="mini") + "\n[checkpoint]\nevery = 2\n"
+    whole, stopped = tmp_path / "whole.toml", tmp_path / "stopped.toml"
+    whole.write_text(text)
+    stopped.write_text(text.replace("T = 2.5e-4", "T = 1.5e-4"))
+    for case, out in ((whole, "whole"), (stopped, "resumed")):
+        done = mpirun("run", str(case), "--out", str(tmp_path / out), "--quiet")
+        assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in (tmp_path / "resumed" / "checkpoints").iterdir()) == ["checkpoint_000002.npz"]
+    for ranks, how in ((3, "mpirun -np 2"), (1, "mpirun -np 2")):
+        done = mpirun("run", str(whole), "--out", str(tmp_path / "resumed"), "--resume", "--quiet", ranks=ranks)
+        assert done.returncode == 2, done.stderr
+        ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+        assert len(ours) == 1 and f"written by 2 ranks, this run has {ranks}; resume with {how}" in ours[0], done.stderr
+    done = mpirun("run", str(whole), "--out", str(tmp_path / "resumed"), "--resume", "--quiet")
+    assert done.returncode == 0, done.stderr
+    expected, got = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "resumed"))
+    assert got["resumed_from"] == 2 and got["step"] == expected["step"] == 5
+    for name, value in expected["l2_norms"].items():
+        assert got["l2_norms"][name] == pytest.approx(value, rel=1e-10), name
+    assert got["energy"]["energy"] == pytest.approx(expected["energy"]["energy"], rel=1e-10)
+
+
+#: ``fsivsp ARGS`` in which every rank sends itself ``signal`` during step ``step`` (as a scheduler signals the
+#: ranks at its time limit), so that the test does not race the run.
+SIGNALLED = """
+import os, signal, sys
+from fsivsp.timestepping.scheme import Scheme
+from fsivsp.app.cli import main
+original = Scheme.step
+def step(self, *args, **kwargs):
+    if self.n + 1 == {step}:
+        os.kill(os.getpid(), signal.{signal})
+    return original(self, *args, **kwargs)
+Scheme.step = step
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@needs_mpi
+def test_sigterm_on_two_ranks_then_resume(tmp_path):
+    """SIGTERM on both ranks during step 3: they finish the step together, one line, a checkpoint at step 3, a
+    summary with "terminated", exit 143; --resume under mpirun ends bit for bit as the uninterrupted run (PETSc, the
+    default under mpirun, rounds alike from run to run on the same ranks)."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini"))
+    script = tmp_path / "signalled.py"
+    script.write_text(SIGNALLED.format(step=3, signal="SIGTERM"))
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
+               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
+    cut = tmp_path / "cut"
+    done = subprocess.run([MPIRUN, "-np", "2", sys.executable, str(script), "run", str(case), "--out", str(cut),
+                           "--quiet"], capture_output=True, text=True, env=env)
+    assert done.returncode == 143, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("terminated")]
+    checkpoint = cut / "checkpoints" / "checkpoint_000003.npz"
+    assert ours == [f"terminated at step 3 (t = 0.00015): checkpoint {checkpoint}; continue with --resume"], done.stderr
+    assert json.loads((cut / "summary.json").read_text())["status"] == "terminated"
+    for args in (("--out", str(tmp_path / "whole")), ("--out", str(cut), "--resume")):
+        done = mpirun("run", str(case), *args, "--quiet")
+        assert done.returncode == 0, done.stderr
+    whole, resumed = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("whole", "cut"))
+    assert resumed["resumed_from"] == 3 and resumed["step"] == whole["step"] == 5
+    assert resumed["l2_norms"] == whole["l2_norms"] and resumed["energy"] == whole["energy"]
+
+
+@needs_mpi
+def test_full_disk_on_two_ranks(tmp_path, tiny_disk):
+    """A forced run into a 700 kB filesystem on 2 ranks: one line naming the file, exit 4, and every VTK piece the
+    series lists reads with meshio."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("T = 2.5e-4", "T = 2e-3").replace("every = 5\nprobes",
+                                                                                      "every = 1\nprobes"))
+    out = tiny_disk / "out"
+    done = mpirun("run", str(case), "--out", str(out), "--force", "--quiet")
+    assert done.returncode == 4, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(ours) == 1 and ours[0].startswith("error: cannot write ") and "No space left" in ours[0], done.stderr
+    series = out / "vtk" / "fields.pvd"
+    if series.exists():
+        import xml.etree.ElementTree as ET
+        for item in ET.parse(series).getroot().iter("DataSet"):
+            meshio.read(series.parent / item.get("file"))
+
+
+@needs_mpi
+def test_second_order_mesh_file_is_refused(tmp_path):
+    """A gmsh file of curved triangle6 cells: one line naming the file, exit 2 on every rank."""
+    from support.meshes import ball, curved_ball, mid_edge_nodes, second_order, write
+
+    from fsivsp.geometry.export import to_meshio
+
+    mesh_file = write(second_order(to_meshio(ball(2)), mid_edge_nodes(curved_ball(2))), tmp_path / "disk.msh")
+    case = tmp_path / "case.toml"
+    case.write_text((ROOT / "examples" / "fluid_in_solid_2d.toml").read_text().replace(
+        'kind = "fluid_in_solid"\ndim = 2\nmaxh = 0.15', f'kind = "mesh"\ndim = 2\npath = "{mesh_file}"'))
+    done = mpirun("study", str(case), "--levels", "0", "--quiet")
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert ours == [f"error: mesh file {mesh_file}: second-order cells are not supported under mpirun "
+                    "(run serially, or write the file with first-order cells)"], done.stderr
+
+
+@needs_mpi
+def test_estimate_and_free_space_refusal_are_one_message(tmp_path, tiny_disk):
+    """On 2 ranks: the estimate line once, then less free space than the output: one error line, exit 2, nothing
+    written."""
+    case = tmp_path / "case.toml"
+    case.write_text(TUBE.format(family="mini").replace("T = 2.5e-4", "T = 2e-3").replace("every = 5\nprobes",
+                                                                                      "every = 1\nprobes"))
+    done = mpirun("run", str(case), "--out", str(tiny_disk / "out"))
+    assert done.returncode == 2, done.stderr
+    ours = [line for line in done.stderr.splitlines() if line.startswith(("estimate:", "error:"))]
+    assert len(ours) == 2 and ours[0].startswith("estimate: 1 799 unknowns (petsc)"), done.stderr
+    assert ours[1].startswith(f"error: fsivsp run: --out {tiny_disk / 'out'}: 0.7 MB free"), done.stderr
+    assert not list(tiny_disk.iterdir())
