@@ -358,3 +358,43 @@ def test_pardiso_matches_only_where_pivots_are_perturbed(systems):
     plain = DirectSolver(a.mat, X.FreeDofs(), method="pardiso", options={"matching": False})
     assert default.statistics()["matching"] is False and default.perturbed_pivots == 0
     assert default.residual == plain.residual
+
+
+@pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_pardiso_gives_ngsolves_binding_bits(systems, symmetric):
+    """`solvers.pardiso` calls MKL's interface with NGSolve's binding's parameters: the same solution bit for bit
+    (the binding's own inverse, without matching, which it leaves off for a symmetric matrix; PARDISO's symmetric
+    indefinite type and its general one)."""
+    from pyngcore import Flags
+
+    X, a = systems(1, "nonsymmetric")
+    ours = DirectSolver(a.mat, X.FreeDofs(), method="pardiso", options={"matching": False, "symmetric": symmetric})
+    flags = {"ordering": "minimum_degree", "refinement": 0, "symmetric": symmetric}
+    theirs = a.mat.Inverse(X.FreeDofs(), inverse="pardiso", flags=Flags(flags))
+    b, x, y = _rhs(a, X), a.mat.CreateColVector(), a.mat.CreateColVector()
+    x.data = ours.inverse * b
+    y.data = theirs * b
+    assert np.array_equal(x.FV().NumPy(), y.FV().NumPy())
+
+
+@pytest.mark.skipif("pardiso" not in available_methods(), reason="needs MKL PARDISO")
+@pytest.mark.parametrize("symmetric", [True, False])
+def test_pardiso_solves_a_complex_symmetric_matrix(meshes, symmetric):
+    """A harmonic step's kind of matrix (complex symmetric: PARDISO's type 6, or its general 13): iωρM + K on a
+    complex velocity space; the solution of UMFPACK's LU to round-off, zero on the Dirichlet dofs."""
+    from fsivsp.solvers.pardiso import Pardiso
+
+    V = ngs.VectorH1(meshes[1], order=2, dirichlet="solid_wall", complex=True)
+    u, w = V.TnT()
+    a = ngs.BilinearForm(V)
+    a += (2j * np.pi * 3.0 * u * w + ngs.InnerProduct(ngs.Grad(u), ngs.Grad(w))) * ngs.dx
+    a.Assemble()
+    b, x, y = a.mat.CreateColVector(), a.mat.CreateColVector(), a.mat.CreateColVector()
+    rng = np.random.default_rng(3)
+    b.FV().NumPy()[:] = rng.standard_normal(len(b)) + 1j * rng.standard_normal(len(b))
+    x.data = Pardiso(a.mat, V.FreeDofs(), symmetric=symmetric) * b
+    y.data = a.mat.Inverse(V.FreeDofs(), inverse="umfpack") * b
+    assert np.abs(x.FV().NumPy() - y.FV().NumPy()).max() < 1e-11 * np.abs(y.FV().NumPy()).max()
+    free = np.fromiter(V.FreeDofs(), dtype=bool, count=V.ndof)
+    assert not free.all() and np.all(x.FV().NumPy()[~free] == 0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import dataclasses
 import os
 import sys
@@ -61,7 +62,8 @@ def current() -> int:
     return GetNumThreads()
 
 
-def _mkl_runtime():
+@functools.cache
+def mkl_runtime():
     """MKL's runtime library (the one NGSolve's PARDISO loads), or None."""
     for name in ("libmkl_rt.so.3", "libmkl_rt.so.2", "libmkl_rt.so", str(Path(sys.prefix) / "lib" / "libmkl_rt.so.3")):
         with contextlib.suppress(OSError):
@@ -78,7 +80,7 @@ def pin_mkl_threading() -> None:
     OpenMP whenever libgomp is already loaded, as it is once petsc4py is imported (Debian's PETSc links it), and
     PARDISO's factors then differ in the last bits (3e-14 after 20 steps of the 2D tube): a run would depend on
     whether PETSc was imported before its first factorisation. Pinned, both give the same bits."""
-    runtime = _mkl_runtime()
+    runtime = mkl_runtime()
     if runtime is not None:
         runtime.MKL_Set_Threading_Layer(MKL_THREADING_INTEL)
 
@@ -92,7 +94,7 @@ def _set_mkl(threads: int) -> int | None:
         return previous
     except ImportError:
         pass
-    runtime = _mkl_runtime()
+    runtime = mkl_runtime()
     if runtime is None:
         os.environ["MKL_NUM_THREADS"] = str(threads)
         return None

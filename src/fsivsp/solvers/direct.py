@@ -17,11 +17,10 @@ takes another method.
 Methods (see ``benchmarks/solver_comparison.md`` for the measurements):
 
 ``"pardiso"``
-    Intel MKL PARDISO through NGSolve's binding (needs the ``mkl`` pip package, which
-    NGSolve finds by itself; about 690 MB installed plus ~300 MB of Intel runtime
-    libraries), with MKL's scaling and symmetric weighted matching for saddle points
-    where pivots had to be perturbed (`MatchingPardiso`). The fastest factorisation and
-    solve here.
+    Intel MKL PARDISO through its documented C interface (`pardiso`; needs the ``mkl`` pip
+    package: about 690 MB installed plus ~300 MB of Intel runtime libraries), with MKL's
+    scaling and symmetric weighted matching for saddle points where pivots had to be
+    perturbed. The fastest factorisation and solve here.
 ``"umfpack"``
     SuiteSparse UMFPACK, built into the NGSolve wheels: LU with partial pivoting,
     safe on indefinite matrices. The default when MKL is not installed. (NGSolve's
@@ -46,11 +45,11 @@ from typing import Any
 
 import ngsolve as ngs
 import numpy as np
-from ngsolve.solvers.mkl_pardiso import MKLPardiso
 from pyngcore import Flags
 
 from .base import SolverError
 from .mumps import MumpsInverse
+from .pardiso import pardiso
 from .sparse import _stores_lower_triangle, free_mask, full_storage_copy, is_symmetric, to_scipy_csr
 
 log = logging.getLogger(__name__)
@@ -76,7 +75,7 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: ``refinement``, ``symmetric`` and ``iparmN`` on to MKL's iparm), chosen by measurement on the peer case's
 #: step matrix, Taylor–Hood k = 2 (benchmarks/peer_hdg.md, "PARDISO's fallback"). The symmetric indefinite type
 #: (-2, Bunch–Kaufman pivoting inside supernodes; ``symmetric`` is set when the matrix is) with ``matching``
-#: (`MatchingPardiso`) where pivots were perturbed: there (a fluid with a Dirichlet wall, whose pressure dofs
+#: (`pardiso.Pardiso`) where pivots were perturbed: there (a fluid with a Dirichlet wall, whose pressure dofs
 #: meet zero pivots: 10 to 258 on levels 0–5) the residual grows 10× per level to 3.1e-9 without it, and stays at
 #: round-off with it (1.9e-13 to 1.1e-12; UMFPACK 1.4e-13 to 6.2e-13), no pivot perturbed, a solve 1.3–2.5×
 #: faster (MKL's two automatic refinement steps after perturbed pivots are gone) for a 1.3–2.5× slower
@@ -85,50 +84,12 @@ SCIPY_SPLU_OPTIONS: dict[str, Any] = {"permc_spec": "COLAMD"}
 #: degree solves as fast as METIS here and factorises 1.2–1.4× faster.
 PARDISO_FLAGS: dict[str, Any] = {"ordering": "minimum_degree", "refinement": 0, "matching": "auto"}
 
-#: The inverse type `MatchingPardiso` is registered under with NGSolve.
-PARDISO_INVERSE = "fsivsp_pardiso"
-
 #: Steps of iterative refinement `factorise` retries PARDISO with when its residual check fails, before any
 #: other method (the same flags; each step one product with the matrix and one solve). Measured on the step
 #: matrix whose pivots were perturbed (no matching): one step brings 3.5e-10 to 3.3e-13 on level 4, 3.1e-9 to
 #: 6.1e-13 on level 5 (MKL's own refinement stops after two steps, at 3.5e-10 with up to 16 allowed); two, for
 #: the retry runs only on factors worse than any measured.
 RETRY_REFINEMENT_STEPS = 2
-
-
-class MatchingPardiso(MKLPardiso):
-    """NGSolve's MKL PARDISO binding with scaling and symmetric weighted matching (iparm[10] = iparm[12] = 1,
-    MKL's advice for saddle points) on the symmetric indefinite type too, where the binding's analysis turns
-    matching off (and so ignores an ``iparm12`` flag). Matching pairs each zero-diagonal pressure dof with a
-    velocity dof in a 2×2 pivot. Flag ``matching``: True, False (the binding's choice), or ``"auto"``: without,
-    and again with matching if a pivot had to be perturbed; ``matching`` is then the one used."""
-
-    matching: bool | str = "auto"
-
-    def _apply_flags(self, flags):
-        self.matching = flags.get("matching", "auto")
-        super()._apply_flags(flags)
-
-    def Analyze(self):
-        auto = self.matching == "auto"
-        self.matching = False if auto else bool(self.matching)
-        super().Analyze()
-        if auto and self.perturbed_pivots:
-            self.matching = True
-            super().Analyze()
-
-    def _call_pardiso(self, phase):
-        if phase == 12 and self.matching:  # analysis and factorisation, after `Analyze` set iparm[12]
-            self._params[10] = self._params[12] = 1
-        super()._call_pardiso(phase)
-
-    @property
-    def perturbed_pivots(self) -> int:
-        """MKL's count of perturbed pivots in the last factorisation (iparm[13])."""
-        return int(self._params[13])
-
-
-ngs.la.RegisterInverseType(PARDISO_INVERSE, MatchingPardiso)
 
 
 class _SquareOperator(ngs.BaseMatrix):
@@ -339,13 +300,14 @@ class DirectSolver:
             opts.update(PARDISO_FLAGS)
             opts["symmetric"] = is_symmetric(matrix)
         opts.update(options or {})
+        if method == "pardiso":
+            return pardiso(matrix, self.freedofs, opts)
         if method == "umfpack" and _stores_lower_triangle(matrix):
             # NGSolve 6.2.2608's UMFPACK takes the stored lower triangle for the
             # whole matrix: it fails (saddle point) or silently solves a wrong
             # system (SPD: residual ~1). Factorise a full-storage copy instead.
             matrix = full_storage_copy(matrix)
-        inverse = PARDISO_INVERSE if method == "pardiso" else method
-        return matrix.Inverse(self.freedofs, inverse=inverse, flags=Flags(opts) if opts else None)
+        return matrix.Inverse(self.freedofs, inverse=method, flags=Flags(opts) if opts else None)
 
     def refine(self, steps: int) -> None:
         """Apply ``steps`` of iterative refinement after every solve from now on (the same factors), and check

@@ -22,7 +22,7 @@ def _raw_csr(matrix):
 
     vals, cols, rowptr = matrix.CSR()
     return sp.csr_matrix(
-        (np.array(vals, dtype=float), np.array(cols), np.array(rowptr)),
+        (np.array(vals, dtype=complex if matrix.is_complex else float), np.array(cols), np.array(rowptr)),
         shape=(matrix.height, matrix.width),
     )
 
