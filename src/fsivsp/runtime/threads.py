@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import functools
 import dataclasses
+import functools
 import os
 import sys
 from collections.abc import Iterator
