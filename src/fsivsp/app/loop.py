@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.boundaries import boundary_conditions, dirichlet
 from ..config.case import CaseError
-from ..config.production import RunCase, boundary_conditions
+from ..config.production import RunCase
 from ..geometry.curved import curve
 from ..model.fields import Field
 from ..runtime import parallel
@@ -33,12 +34,12 @@ def build_scheme(case: RunCase):
     from ..model.manufactured import elastic_stress
     from ..timestepping.scheme import Scheme
 
-    velocity, traction = boundary_conditions(case)
+    conditions = boundary_conditions(case.boundaries, case.mesh, case.dim)
     disc = case.discretisation
     with stage("spaces"):
         if disc.curved:
             curve(case.mesh, base_order(disc.family, disc.order))
-        spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
+        spaces = build_spaces(case.mesh, disc.family, disc.order, dirichlet(conditions), case.phases)
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)
     data = Data(
@@ -49,8 +50,7 @@ def build_scheme(case: RunCase):
                  if disc.initial_stress == "projection" else None),
         force_fluid=Field(case.data["force_fluid"]) if "force_fluid" in case.data else None,
         force_solid=Field(case.data["force_solid"]) if "force_solid" in case.data else None,
-        boundary_velocity=velocity,
-        boundary_traction=traction,
+        **conditions,
     )
     return Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
 
@@ -67,11 +67,11 @@ def l2_norms(scheme) -> dict[str, float]:
 
     from ..geometry import FLUID, SOLID
     from ..runtime.threads import integrate
-    mesh, sigma = scheme.spaces.mesh, scheme.stress
+    mesh, sigma, phases = scheme.spaces.mesh, scheme.stress, scheme.spaces.phases
+    fluid, solid = (mesh.Materials(phases.pattern(medium)) for medium in (FLUID, SOLID))
     return {"velocity": math.sqrt(integrate(ngs.InnerProduct(scheme.velocity, scheme.velocity), mesh)),
-            "pressure": math.sqrt(integrate(scheme.pressure**2, mesh, definedon=mesh.Materials(FLUID))),
-            "stress": math.sqrt(max(integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)),
-                                    0.0))}
+            "pressure": math.sqrt(integrate(scheme.pressure**2, mesh, definedon=fluid)),
+            "stress": math.sqrt(max(integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=solid), 0.0))}
 
 
 def check_distributed(case: RunCase) -> None:
@@ -114,7 +114,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     fields, stress = scheme_fields(scheme)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
                        refresh=stress, continuous=case.output["continuous"]) if case.output["vtk"] else None
-    probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
+    probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"], phases=case.phases)
     history = {"time": [], "energy": []}
     resumed_from = None
     if resume and (latest := parallel.shared(latest_checkpoint, checkpoints, _skipped)) is not None:
