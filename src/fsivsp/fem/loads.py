@@ -36,12 +36,13 @@ def region_facets(spaces: Spaces) -> dict[str, ngs.GridFunction]:
     space = ngs.FacetFESpace(mesh, order=0)
     counts = {region: ngs.GridFunction(space) for region in phases.regions}
     total = ngs.GridFunction(space)
-    for gf in (*counts.values(), total):
-        gf.vec[:] = 0.0
+    values = {region: gf.vec.FV().NumPy() for region, gf in counts.items()}
+    for array in (*values.values(), total.vec.FV().NumPy()):
+        array[:] = 0.0
     for el in mesh.Elements(ngs.VOL):
-        for dof in space.GetDofNrs(el):
-            counts[el.mat].vec[dof] += 1.0
-            total.vec[dof] += 1.0
+        dofs = list(space.GetDofNrs(el))
+        values[el.mat][dofs] += 1.0
+        total.vec.FV().NumPy()[dofs] += 1.0
     for gf in (*counts.values(), total):
         if mesh.comm.size > 1:
             gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)

@@ -104,7 +104,7 @@ def check_regions(mesh: ngs.Mesh, phases: Phases | None = None) -> Phases:
 
 
 def adjacent_regions(mesh: ngs.Mesh, boundary: str) -> set[str]:
-    """The cell regions next to the facets of ``boundary`` (over every rank)."""
+    """The cell regions next to the facets of ``boundary`` (over every rank of a distributed mesh)."""
     from ..runtime import parallel
 
     found = set()
@@ -112,7 +112,7 @@ def adjacent_regions(mesh: ngs.Mesh, boundary: str) -> set[str]:
         if el.mat == boundary:
             facet = el.edges[0] if mesh.dim == 2 else el.faces[0]
             found.update(mesh[cell].mat for cell in mesh[facet].elements)
-    return set().union(*parallel.gather(found))
+    return set().union(*parallel.gather(found)) if mesh.comm.size > 1 else found
 
 
 def check_distributable(mesh: ngs.Mesh) -> None:

@@ -42,10 +42,11 @@ class Section:
 
 
 def _facets(mesh: ngs.Mesh, name: str) -> np.ndarray:
-    """The vertex coordinates of the boundary's facets (facets × vertices × d), gathered from every rank."""
+    """The vertex coordinates of the boundary's facets (facets × vertices × d), from every rank of a distributed
+    mesh."""
     mask = mesh.Boundaries(name).Mask()
     local = [[mesh[v].point[: mesh.dim] for v in el.vertices] for el in mesh.Elements(ngs.BND) if mask[el.index]]
-    facets = [f for part in parallel.gather(local) for f in part]
+    facets = [f for part in parallel.gather(local) for f in part] if mesh.comm.size > 1 else local
     return np.array(facets, dtype=float).reshape(-1, mesh.dim, mesh.dim)
 
 

@@ -76,7 +76,8 @@ class Outlet:
             theta = current.theta
             h = ((rc - lag) * pc + lag * m.distal * flow + dt * (theta * pd(t) + (1 - theta) * pd(t - dt))) / (rc + tau)
         self._pending[n] = (h, self.effective_resistance(tau))
-        return tau * h + lag * (pc + m.proximal * flow)
+        return float(tau * h + lag * (pc + m.proximal * flow))  # a Python float: numpy's would scale an NGSolve vector
+                                                                 # through the buffer protocol (a crash under MPI)
 
     def _accepted(self, n: int, flow: float) -> tuple[float, float, float]:
         """(P_cⁿ, P_cⁿ⁻¹, Qⁿ) once step n is solved with Qⁿ = ``flow``."""
