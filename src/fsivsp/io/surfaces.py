@@ -8,9 +8,10 @@ integral over the cells of one medium, ``dx(medium, element_boundary=True)`` —
 normal — times the indicator χ of the boundary's facets: ∫_Γ f = Σ_{T ⊂ medium} ∫_{∂T} χ f. The medium is the
 fluid on fluid boundaries and on Γ (n out of the fluid: the paper's n), the solid on solid boundaries; σ is σ_F =
 −pI + 2νε(v) there, σ_h (`Scheme.stress`) on solid boundaries, and the force is the one the outside exerts on that
-medium. On Γ the traction t = σ_F n and the wall shear stress τ = t − (t·n)n are L²-projected facet by facet into the
-facet space of the velocity's degree less one (exact for the trace). Under MPI each rank integrates its cells and the
-sums are added.
+medium. Each quantity is linear in the state, so it is a vector assembled once and an inner product a step. On Γ the
+traction t = σ_F n and the wall shear stress τ = t − (t·n)n are L²-projected facet by facet into the facet space of
+the velocity's degree less one (exact for the trace). Under MPI each rank assembles on its cells and the inner
+products add the ranks' parts.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from ngsolve import InnerProduct
 
-from ..fem.forms import eps
+from ..fem.forms import elastic_stress, eps
 from ..geometry import FLUID, INTERFACE, SOLID, adjacent_regions
 from ..runtime import parallel
 from . import atomic
@@ -63,6 +64,7 @@ class Surfaces:
         self.medium = {name: FLUID if name == INTERFACE or adjacent_regions(self.mesh, name) & set(self.phases.fluid)
                        else SOLID for name in self.names}
         self.areas = {name: self._integral(ngs.CF(1.0), name) for name in self.names}
+        self._rows = self._functionals()
         self._projection = None
 
     def columns(self) -> list[str]:
@@ -76,11 +78,39 @@ class Surfaces:
                       bonus_intorder=self.scheme.spaces.bonus_intorder if medium == FLUID else 0)
 
     def _integral(self, cf, name: str) -> float:
-        """∫ χ cf over the cells' boundaries, added cell by cell in their order (the same bits on any number of
-        threads), over the ranks under MPI (NGSolve's Integrate of a form does not add them)."""
+        """∫ χ cf over the cells' boundaries, added cell by cell in their order, over the ranks under MPI (NGSolve's
+        Integrate of a form does not add them)."""
         cells = ngs.Integrate(cf * self.chi[name] * self._measure(name), self.mesh, element_wise=True)
         local = float(np.sum(cells.NumPy()))
         return self.mesh.comm.Sum(local) if self.mesh.comm.size > 1 else local
+
+    def _functionals(self) -> dict[str, tuple[ngs.BaseVector, str, float, float]]:
+        """Every quantity but the area is linear in the state (v, p), or on a solid boundary the force in the
+        displacement u_h (σ_h = σ*_h + Cε(u_h)): column → (l, "state" or "carried", scale, constant) with the
+        quantity scale·lᵀx + constant, l = ∫ χ q(w) for the test functions w, assembled once."""
+        scheme = self.scheme
+        (w, test_pressure), n = scheme.spaces.mixed.TestFunction(), ngs.specialcf.normal(self.dim)
+
+        def functional(name, integrand):
+            form = ngs.LinearForm(scheme.spaces.mixed)
+            form += self.chi[name] * integrand * self._measure(name)
+            return form.Assemble().vec
+
+        rows = {}
+        for name in self.names:
+            fluid = self.medium[name] == FLUID
+            rows[f"{name}.flow"] = (functional(name, InnerProduct(w, n)), "state", 1.0, 0.0)
+            if fluid:
+                rows[f"{name}.pressure"] = (functional(name, test_pressure), "state", 1 / self.areas[name], 0.0)
+                traction = -test_pressure * n + 2 * scheme.coefficients.nu * eps(w) * n
+            else:
+                traction = elastic_stress(w, scheme.coefficients, self.dim) * n
+            for i, axis in enumerate("xyz"[: self.dim]):
+                offset = 0.0 if fluid or scheme.stress_offset is None else \
+                    self._integral((scheme.stress_offset * n)[i], name)
+                rows[f"{name}.force_{axis}"] = (functional(name, traction[i]), "state" if fluid else "carried", 1.0,
+                                                offset)
+        return rows
 
     def fluid_stress(self) -> ngs.CoefficientFunction:
         """σ_F = −pI + 2ν ε(v) of the scheme's state."""
@@ -89,18 +119,13 @@ class Surfaces:
 
     def values(self) -> dict[str, float]:
         """The quantities of every boundary at the scheme's step; the mean pressure NaN on a solid boundary."""
-        n = ngs.specialcf.normal(self.dim)
+        vectors = {"state": self.scheme.state.vec, "carried": self.scheme.carried.vec}
         out = {}
         for name in self.names:
-            fluid = self.medium[name] == FLUID
-            area = self.areas[name]
-            out[f"{name}.flow"] = self._integral(InnerProduct(self.scheme.velocity, n), name)
-            out[f"{name}.pressure"] = self._integral(self.scheme.pressure, name) / area if fluid else float("nan")
-            out[f"{name}.area"] = area
-            traction = (self.fluid_stress() if fluid else self.scheme.stress) * n
-            for i, axis in enumerate("xyz"[: self.dim]):
-                out[f"{name}.force_{axis}"] = self._integral(traction[i], name)
-        return out
+            out[f"{name}.pressure"], out[f"{name}.area"] = float("nan"), self.areas[name]
+        for column, (functional, source, scale, constant) in self._rows.items():
+            out[column] = scale * InnerProduct(functional, vectors[source]) + constant
+        return {column: out[column] for column in self.columns()}
 
     def interface_fields(self) -> tuple[ngs.CoefficientFunction, ngs.CoefficientFunction]:
         """The traction t = σ_F n and the wall shear stress τ = t − (t·n)n on Γ (n out of the fluid), each

@@ -323,7 +323,8 @@ class Scheme:
         """The scheme's stable norm of (vⁿ, σⁿ_h), non-increasing when f = 0 and the boundary is at rest: the
         energy ½∫ρ|vⁿ|² + ½∫_S Aσⁿ_h:σⁿ_h (θ-scheme; conserved up to the viscous dissipation at θ = 1/2) or
         BDF2's G-norm ½(E(Uⁿ) + E(2Uⁿ − Uⁿ⁻¹)), U = (v, σ), from n = 1 on: at n = 1 it exceeds E⁰ by
-        E(U¹ − U⁰) (the Crank–Nicolson start's level n − 1 is U⁰)."""
+        E(U¹ − U⁰) (the Crank–Nicolson start's level n − 1 is U⁰). A tissue support's springs are in it (through K);
+        a Windkessel's capacitor, which may give energy back, is not."""
         if self.previous is None or self.n == 0:
             return self._energy(self.state.vec, self.carried.vec)
         if self._extrapolated is None:
