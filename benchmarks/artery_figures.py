@@ -68,9 +68,13 @@ def wall_shear_stress(out: Path, figure: Path) -> dict:
     x, y, z = mesh.points.T
     theta = np.degrees(np.arctan2(z, y))
     magnitude = np.asarray(mesh.point_data["wss_magnitude"]).ravel()
+    triangles = mesh.cells[0].data
+    whole = np.ptp(theta[triangles], axis=1) < 180  # not across the seam θ = ±180°
     fig, ax = plt.subplots(figsize=(8, 3.2), constrained_layout=True)
-    dots = ax.scatter(x, theta, c=magnitude, s=4, cmap="viridis")
+    dots = ax.tripcolor(x, theta, triangles[whole], facecolors=magnitude[triangles[whole]].mean(axis=1),
+                        cmap="viridis")
     fig.colorbar(dots, label="|wall shear stress| (dyn/cm²)")
+    ax.set_ylim(-180, 180)
     ax.set_xlabel("x (cm)")
     ax.set_ylabel("θ (degrees)")
     ax.set_title(f"wall shear stress at t = {times[k]:.2f} s (inflow {flows[k]:.1f} cm³/s), vtk/interface.pvd",
@@ -82,26 +86,26 @@ def wall_shear_stress(out: Path, figure: Path) -> dict:
 
 
 def reflection(figure: Path) -> dict:
-    """P at the inlet of the compliant channel (L = 10, maxh 0.05, Δt 5e-4) with a traction-free and a tuned outlet."""
+    """The backward wave P₋ = (P − Z Q)/2 at the inlet of the compliant channel (L = 10, maxh 0.05, Δt 5e-4) with a
+    traction-free and a tuned outlet."""
     from experiments.test_reflection import IMPEDANCE, SPEED, T0, tuned
     from experiments.test_reflection import reflection as measure
 
-    traces = {}
-    for label, outlets in (("traction-free outlet", {}), ("Windkessel, R_p = Z", tuned())):
-        back, _, trace = measure(outlets, 10.0, 0.05, 5e-4, trace=True)
-        traces[label] = (back, trace)
+    traces = {label: measure(outlets, 10.0, 0.05, 5e-4, trace=True)
+              for label, outlets in (("traction-free outlet", {}), ("Windkessel, R_p = Z", tuned()))}
     fig, ax = plt.subplots(figsize=(7, 3.4), constrained_layout=True)
-    for label, (_, (t, p)) in traces.items():
-        ax.plot(t, p, label=label)
+    for label, (back, incident, (t, wave)) in traces.items():
+        ax.plot(t, wave / incident, label=f"{label}: max |P₋| {back / incident:.3f} of the incident")
     ax.axvline(T0 + 20 / SPEED, color="grey", lw=0.8, ls=":")
     ax.set_xlabel("t")
-    ax.set_ylabel("mean pressure at the inlet")
-    ax.set_title(f"a pressure pulse and its reflection (c = {SPEED:.1f}, Z = {IMPEDANCE:.1f})", fontsize=9)
+    ax.set_ylabel("P₋ / max P₊ at the inlet")
+    ax.set_title(f"the reflected wave at the inlet, (P − ZQ)/2 (c = {SPEED:.1f}, Z = {IMPEDANCE:.1f}; dotted: "
+                 "t₀ + 2L/c)", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(figure, dpi=110)
     plt.close(fig)
-    return {label: back for label, (back, _) in traces.items()}
+    return {label: back / incident for label, (back, incident, _) in traces.items()}
 
 
 if __name__ == "__main__":

@@ -99,25 +99,25 @@ def test_run_writes_surfaces_and_the_interface(tmp_path):
 
 
 def test_killed_run_resumes_to_identical_results(tmp_path):
-    """SIGKILL during step 13 of 20: the resume from the checkpoint of step 8 (the outlet's P_c, P_c before and Q
+    """SIGKILL during step 11 of 15: the resume from the checkpoint of step 8 (the outlet's P_c, P_c before and Q
     with the vectors) ends as the uninterrupted run, bit for bit: fields, surfaces.csv, the outlet's state."""
-    case = vessel(tmp_path, T=0.2, every=4)
+    case = vessel(tmp_path, T=0.15, every=4)
     reference = tmp_path / "reference"
     assert main(["run", str(case), "--out", str(reference), "--quiet"]) == 0
     out = tmp_path / "killed"
-    process = subprocess.Popen([sys.executable, "-c", _STOPS_AT, "13", "run", str(case), "--out", str(out),
+    process = subprocess.Popen([sys.executable, "-c", _STOPS_AT, "11", "run", str(case), "--out", str(out),
                                 "--quiet"], stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                text=True)
-    assert process.stdout.readline() == "at step 13\n"
+    assert process.stdout.readline() == "at step 11\n"
     process.send_signal(signal.SIGKILL)
     assert process.wait() == -signal.SIGKILL
     assert main(["run", str(case), "--out", str(out), "--resume", "--quiet"]) == 0
     summary, expected = (json.loads((folder / "summary.json").read_text()) for folder in (out, reference))
-    assert summary["resumed_from"] == 12 and summary["outlets"] == expected["outlets"]
+    assert summary["resumed_from"] == 8 and summary["outlets"] == expected["outlets"]
     assert (out / "surfaces.csv").read_text() == (reference / "surfaces.csv").read_text()
     import meshio
 
-    for name in ("fields_000020.vtu", "interface_000020.vtu"):
+    for name in ("fields_000015.vtu", "interface_000015.vtu"):
         ours, theirs = (meshio.read(folder / "vtk" / name).point_data for folder in (out, reference))
         for field in theirs:
             assert np.array_equal(ours[field], theirs[field]), (name, field)

@@ -10,7 +10,7 @@ pressure and Q its inflow, `io.surfaces`), measured when the reflection returns,
 """
 import numpy as np
 import pytest
-from support.channels import at_rest, channel_scheme
+from support.channels import at_rest, channel_scheme, history
 
 from fsivsp.io.surfaces import Surfaces
 from fsivsp.model.data import Windkessel
@@ -25,27 +25,20 @@ IMPEDANCE = RHO * SPEED / (2 * RADIUS)
 
 def reflection(outlets: dict, length: float, maxh: float, dt: float, trace: bool = False):
     """max |P₋| at the inlet within ±3s of t₀ + 2L/c, and the incident P₊ = (P + Z Q)/2's peak; with ``trace``
-    also the times and the inlet's mean pressures (benchmarks/artery_figures.py)."""
+    also the times and P₋ at every step (benchmarks/artery_figures.py)."""
     young = MODULUS * (1 + POISSON) * (1 - 2 * POISSON) / (1 - POISSON)
     data = at_rest(velocity={"solid_wall": [0, 0]}, traction={"inflow": [f"{P0}*exp(-((t - {T0})/{WIDTH})**2)", 0]},
                    outlets=outlets)
     run = channel_scheme(data, Materials.from_young(young, POISSON, rho_fluid=RHO, rho_solid=1.0, nu=NU), dt, "bdf2",
                          maxh=maxh, length=length, dirichlet="solid_wall", radius=RADIUS, wall=WALL)
     surfaces = Surfaces(run, ["inflow"])
-    back, forward, times, pressures = [], [], [], []
-
-    def observe(s):
-        values = surfaces.values()
-        pressure, inflow = values["inflow.pressure"], -values["inflow.flow"]
-        times.append(s.time)
-        pressures.append(pressure)
-        forward.append((pressure + IMPEDANCE * inflow) / 2)
-        if abs(s.time - (T0 + 2 * length / SPEED)) < 3 * WIDTH:
-            back.append((pressure - IMPEDANCE * inflow) / 2)
-
-    run.march(round((T0 + 2 * length / SPEED + 4 * WIDTH) / dt), observe)
-    measured = float(np.abs(back).max()), float(max(forward))
-    return (*measured, (np.array(times), np.array(pressures))) if trace else measured
+    record = history(run, round((T0 + 2 * length / SPEED + 4 * WIDTH) / dt),
+                     pressure=lambda s: surfaces.values()["inflow.pressure"],
+                     inflow=lambda s: -surfaces.values()["inflow.flow"])
+    back = (record["pressure"] - IMPEDANCE * record["inflow"]) / 2
+    gate = np.abs(record["time"] - (T0 + 2 * length / SPEED)) < 3 * WIDTH
+    measured = float(np.abs(back[gate]).max()), float(((record["pressure"] + IMPEDANCE * record["inflow"]) / 2).max())
+    return (*measured, (record["time"], back)) if trace else measured
 
 
 def tuned() -> dict:
