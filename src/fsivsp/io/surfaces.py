@@ -27,6 +27,7 @@ from ..fem.forms import elastic_stress, eps
 from ..geometry import FLUID, INTERFACE, SOLID, adjacent_regions
 from ..runtime import parallel
 from . import atomic
+from .checkpoint import CheckpointError
 
 #: The quantities per boundary, as the CSV's column suffixes (forces by axis).
 QUANTITIES = ("flow", "pressure", "area")
@@ -189,11 +190,16 @@ class SurfaceTable:
         values = self.surfaces.values()
         self.rows.append([time, *(values[c] for c in self.columns)])
 
-    def state(self) -> list[list[float]]:
-        return self.rows
+    def state(self) -> dict:
+        """The columns and the rows so far (a checkpoint's JSON)."""
+        return {"columns": self.columns, "rows": self.rows}
 
-    def restore(self, rows) -> None:
-        self.rows = [list(map(float, row)) for row in rows]
+    def restore(self, state: dict) -> None:
+        """Continue the rows of a checkpoint's `state`; one of other surfaces is refused (`CheckpointError`)."""
+        if state.get("columns") != self.columns:
+            raise CheckpointError(f"checkpoint: its surface quantities are of {state.get('columns')}, this run's "
+                                  f"[output] surfaces give {self.columns}; resume with the same surfaces")
+        self.rows = [list(map(float, row)) for row in state["rows"]]
 
     def write_csv(self, out: Path) -> None:
         """surfaces.csv (rank 0)."""
