@@ -9,8 +9,8 @@ from .config.case import Case, CaseError, Discretisation
 from .experiments.paper import paper_case, reference_table
 from .experiments.study import manufactured_data, run_level, study, time_study
 from .fem.spaces import Spaces, build_spaces
-from .geometry import paper_channel, refined
-from .model.data import Data
+from .geometry import Phases, mesh_phases, paper_channel, refined
+from .model.data import Data, FlowRate, Support, Windkessel, resistance
 from .model.expressions import ExpressionError, parse, parse_vector
 from .model.fields import Field
 from .model.manufactured import ExactSolution, ManufacturedError
@@ -22,8 +22,8 @@ from .timestepping.schemes import time_scheme
 
 __version__ = "0.1.0"
 __all__ = [
-    "Scheme", "Case", "CaseError", "Data", "Discretisation", "ExactSolution", "ExpressionError", "Field",
-    "ManufacturedError", "Materials", "SolverSpec", "Spaces", "build_spaces", "manufactured_data", "paper_case",
-    "paper_channel", "parse", "parse_vector", "reference_table", "refined", "run", "run_level", "study",
-    "time_scheme", "time_study",
+    "Scheme", "Case", "CaseError", "Data", "Discretisation", "ExactSolution", "ExpressionError", "Field", "FlowRate",
+    "ManufacturedError", "Materials", "Phases", "SolverSpec", "Spaces", "Support", "Windkessel", "build_spaces",
+    "manufactured_data", "mesh_phases", "paper_case", "paper_channel", "parse", "parse_vector", "reference_table",
+    "refined", "resistance", "run", "run_level", "study", "time_scheme", "time_study",
 ]

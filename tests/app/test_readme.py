@@ -39,6 +39,8 @@ COMMANDS = {
     "fsivsp run examples/cad_3d.toml --out cad3d": RUN,
     "fsivsp run examples/channel_2d.toml --out channel2d": RUN,
     "fsivsp run examples/large_ball_3d.toml --out large_ball": PARSE,  # its coarse mesh runs in test_run.py
+    "fsivsp run examples/artery_3d.toml --out artery3d": PARSE,  # a few steps run in test_boundaries.py (slow)
+    "fsivsp run examples/artery_2d.toml --out artery2d": PARSE,  # a few steps run in test_boundaries.py
     "fsivsp paper --dt 1e-2 --levels 0-4": PARSE,
     "fsivsp paper --dt 1e-3 --levels 2 --json out.json": PARSE,
     "fsivsp paper --all --out paper-report": PARSE,

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from fsivsp.config import case, production
+from fsivsp.config import boundaries, case, production
 from fsivsp.config.keys import KEYS, names
 from fsivsp.geometry import KINDS
 
@@ -24,12 +24,13 @@ def test_the_page_is_the_list():
 ACCEPTED = {
     "geometry": {"kind", "dim", "maxh", "refine"} | {name for kind in KINDS.values() for name in kind["parameters"]},
     "materials": case.SECTIONS["materials"] | {"young", "poisson"},
+    "materials.NAME": set(case.FLUID_FIELDS) | set(case.SOLID_FIELDS) | {"young", "poisson"},
     "time": case.SECTIONS["time"],
     "discretisation": case.SECTIONS["discretisation"],
     "solver": case.SECTIONS["solver"],
     "exact": case.SECTIONS["exact"],
     "data": production.DATA_KEYS,
-    "boundary.NAME": production.BOUNDARY_KEYS,
+    "boundary.NAME": boundaries.BOUNDARY_KEYS,
     "output": production.OUTPUT_KEYS,
     "checkpoint": production.CHECKPOINT_KEYS,
 }

@@ -123,12 +123,12 @@ def megabytes(size: float) -> str:
 
 def count_unknowns(case) -> int:
     """The free dofs of X_h on the case's mesh (all ranks under MPI), from its spaces alone."""
-    from ..config.production import boundary_conditions
+    from ..config.boundaries import boundary_conditions, dirichlet
     from ..fem.spaces import build_spaces
 
-    velocity, _ = boundary_conditions(case)
     disc = case.discretisation
-    return build_spaces(case.mesh, disc.family, disc.order, "|".join(velocity)).free_dofs()
+    walls = dirichlet(boundary_conditions(case.boundaries, case.mesh, case.dim))
+    return build_spaces(case.mesh, disc.family, disc.order, walls, case.phases).free_dofs()
 
 
 def power_law(table: dict, dim: int, solver: str, unknowns: int) -> float:

@@ -1,6 +1,6 @@
 """Production runs: a `RunCase` (`runcase`) from its `Scheme` (`build_scheme`) through the time loop
 (`run_case`: progress bar, checkpoints and resume, a stop by signal, divergence) to ParaView series, probes,
-plots and a JSON summary."""
+surface quantities, plots and a JSON summary."""
 from __future__ import annotations
 
 import logging
@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..config.boundaries import boundary_conditions, dirichlet
 from ..config.case import CaseError
-from ..config.production import RunCase, boundary_conditions
+from ..config.production import RunCase
 from ..geometry.curved import curve
 from ..model.fields import Field
 from ..runtime import parallel
@@ -33,12 +34,12 @@ def build_scheme(case: RunCase):
     from ..model.manufactured import elastic_stress
     from ..timestepping.scheme import Scheme
 
-    velocity, traction = boundary_conditions(case)
+    conditions = boundary_conditions(case.boundaries, case.mesh, case.dim)
     disc = case.discretisation
     with stage("spaces"):
         if disc.curved:
             curve(case.mesh, base_order(disc.family, disc.order))
-        spaces = build_spaces(case.mesh, case.discretisation.family, case.discretisation.order, "|".join(velocity))
+        spaces = build_spaces(case.mesh, disc.family, disc.order, dirichlet(conditions), case.phases)
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)
     data = Data(
@@ -49,8 +50,7 @@ def build_scheme(case: RunCase):
                  if disc.initial_stress == "projection" else None),
         force_fluid=Field(case.data["force_fluid"]) if "force_fluid" in case.data else None,
         force_solid=Field(case.data["force_solid"]) if "force_solid" in case.data else None,
-        boundary_velocity=velocity,
-        boundary_traction=traction,
+        **conditions,
     )
     return Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
 
@@ -67,11 +67,11 @@ def l2_norms(scheme) -> dict[str, float]:
 
     from ..geometry import FLUID, SOLID
     from ..runtime.threads import integrate
-    mesh, sigma = scheme.spaces.mesh, scheme.stress
+    mesh, sigma, phases = scheme.spaces.mesh, scheme.stress, scheme.spaces.phases
+    fluid, solid = (mesh.Materials(phases.pattern(medium)) for medium in (FLUID, SOLID))
     return {"velocity": math.sqrt(integrate(ngs.InnerProduct(scheme.velocity, scheme.velocity), mesh)),
-            "pressure": math.sqrt(integrate(scheme.pressure**2, mesh, definedon=mesh.Materials(FLUID))),
-            "stress": math.sqrt(max(integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=mesh.Materials(SOLID)),
-                                    0.0))}
+            "pressure": math.sqrt(integrate(scheme.pressure**2, mesh, definedon=fluid)),
+            "stress": math.sqrt(max(integrate(ngs.InnerProduct(sigma, sigma), mesh, definedon=solid), 0.0))}
 
 
 def check_distributed(case: RunCase) -> None:
@@ -98,7 +98,19 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     import ngsolve as ngs
 
     from ..fem.spaces import global_count
-    from ..io import Probes, VTKSeries, energy_plot, line_plot, probe_plot, scheme_fields, write_summary
+    from ..geometry import INTERFACE
+    from ..io import (
+        Probes,
+        Surfaces,
+        SurfaceTable,
+        VTKSeries,
+        energy_plot,
+        line_plot,
+        probe_plot,
+        scheme_fields,
+        surface_plot,
+        write_summary,
+    )
     from ..io.checkpoint import checkpoint_path, latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
     from ..runtime.progress import tqdm
     from ..runtime.threads import current as current_threads
@@ -114,25 +126,40 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     fields, stress = scheme_fields(scheme)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
                        refresh=stress, continuous=case.output["continuous"]) if case.output["vtk"] else None
-    probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"])
+    probes = Probes(case.mesh, points=case.output["probes"], lines=case.output["lines"], phases=case.phases)
+    surfaces = SurfaceTable(Surfaces(scheme, case.output["surfaces"])) if case.output["surfaces"] else None
+    walls = None
+    if surfaces is not None and INTERFACE in case.output["surfaces"] and case.output["vtk"]:
+        traction, wss = surfaces.surfaces.interface_fields()
+        walls = VTKSeries(out / "vtk", case.mesh, {"traction": traction, "wss": wss,
+                                                   "wss_magnitude": ngs.sqrt(ngs.InnerProduct(wss, wss))},
+                          name="interface", subdivision=case.output["subdivision"],
+                          refresh=surfaces.surfaces.interface_fields, boundary=INTERFACE)
+    series_all = [s for s in (series, walls) if s is not None]
     history = {"time": [], "energy": []}
     resumed_from = None
     if resume and (latest := parallel.shared(latest_checkpoint, checkpoints, _skipped)) is not None:
         extra = load_checkpoint(latest, scheme)
         history = extra["history"]
         probes.restore(extra["probes"])
-        if series is not None:
-            series.restore(extra["vtk"])
+        for written, entries in zip(series_all, (extra["vtk"], extra.get("interface", []))):
+            written.restore(entries)
+        if surfaces is not None:
+            surfaces.restore(extra["surfaces"])
         resumed_from = scheme.n
     else:
         history["time"].append(0.0)
         history["energy"].append(scheme.energy())
         probes.record(scheme)
-        if series is not None:
-            series.write(0.0, 0)
+        if surfaces is not None:
+            surfaces.record(0.0)
+        for written in series_all:
+            written.write(0.0, 0)
 
     def extra() -> dict:
-        return {"history": history, "probes": probes.state(), "vtk": series.entries if series else []}
+        return {"history": history, "probes": probes.state(), "vtk": series.entries if series else [],
+                **({"interface": walls.entries} if walls else {}),
+                **({"surfaces": surfaces.state()} if surfaces else {})}
 
     def finish(status: str) -> dict:
         if parallel.is_root():
@@ -142,6 +169,9 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 probe_plot(probes, out / "probes.png")
             if case.output["lines"]:
                 line_plot(probes, out / "lines.png")
+            if surfaces is not None:
+                surfaces.write_csv(out)
+                surface_plot(surfaces.columns, surfaces.rows, out / "surfaces.png")
         spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
         summary = {
             "case": str(case.path), "overrides": case.overrides, "status": status, "step": scheme.n,
@@ -163,6 +193,8 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             "resumed_from": resumed_from,
             "energy": history,
             "l2_norms": l2_norms(scheme),
+            **({"outlets": {o.name: {"pressure": o.pressure, "flow": float(o.state[2])} for o in scheme.outlets}}
+               if scheme.outlets else {}),
         }
         if parallel.is_root():
             write_summary(out / "summary.json", summary)
@@ -191,8 +223,11 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             history["time"].append(scheme.time)
             history["energy"].append(scheme.energy())
             probes.record(scheme)
-            if series is not None and (scheme.n % every == 0 or scheme.n == case.steps):
-                series.write(scheme.time, scheme.n)
+            if surfaces is not None:
+                surfaces.record(scheme.time)
+            if scheme.n % every == 0 or scheme.n == case.steps:
+                for written in series_all:
+                    written.write(scheme.time, scheme.n)
             interrupted = int(comm.Max(float(interrupt.requested)))
             if scheme.n % keep == 0 or interrupted:
                 written = save_checkpoint(checkpoint_path(checkpoints, scheme.n), scheme, extra())

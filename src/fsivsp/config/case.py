@@ -13,8 +13,9 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import CaseError, is_whole
 from ..fem.spaces import FAMILIES
+from ..geometry import Phases, geometry_phases
 from ..model.data import INITIAL_STRESS, INITIAL_VELOCITY
-from ..model.materials import Materials
+from ..model.materials import FLUID_FIELDS, SOLID_FIELDS, Materials, lame
 from ..runtime.logs import warn
 from ..solvers import MAX_ITERATIONS, TOLERANCE, SolverSpec
 from ..timestepping.schemes import BDF2, Theta, time_scheme
@@ -44,22 +45,61 @@ SOLVER_FIELDS = {"method": "discretisation.solver", "tolerance": "discretisation
 
 def read_materials(table: dict, dim: int, young_allowed: bool = False) -> Materials:
     """ρ_F, ρ_S, ν > 0 and the Lamé constants μ > 0, λ > −2μ/d; with ``young_allowed`` the
-    solid may be given instead by Young's modulus E > 0 and Poisson's ratio −1 < ν_P < 1/2."""
+    solid may be given instead by Young's modulus E > 0 and Poisson's ratio −1 < ν_P < 1/2. Sub-tables (a cell
+    region's own materials) are read once the mesh is known (`read_region_materials`)."""
+    table = {key: value for key, value in table.items() if not isinstance(value, dict)}
     allowed = SECTIONS["materials"] | ({"young", "poisson"} if young_allowed else set())
     check_keys(table, allowed, "materials")
     fluid = {key: number(table, key, "materials", minimum=0) for key in ("rho_fluid", "rho_solid", "nu")}
     kinematic_note(fluid["nu"], fluid["rho_fluid"])
+    return Materials(**fluid, **_lame(table, "materials", dim, young_allowed, required=True))
+
+
+def _lame(table: dict, where: str, dim: int, young_allowed: bool, required: bool,
+          mu_default: float | None = None) -> dict[str, float]:
+    """λ and μ of a table: lam and mu, or young and poisson (``young_allowed``); all ``required``, or any of them
+    (a region's: μ defaults to ``mu_default`` for λ's bound)."""
     if young_allowed and ("young" in table or "poisson" in table):
         for key in ("lam", "mu"):
             if key in table:
-                raise CaseError(f"materials.{key}: give either lam and mu or young and poisson, not both")
-        young = number(table, "young", "materials", minimum=0)
-        poisson = number(table, "poisson", "materials", minimum=-1)
+                raise CaseError(f"{where}.{key}: give either lam and mu or young and poisson, not both")
+        young = number(table, "young", where, minimum=0)
+        poisson = number(table, "poisson", where, minimum=-1)
         if poisson >= 0.5:
-            raise CaseError(f"materials.poisson: expected a number in (-1, 0.5), got {poisson!r}")
-        return Materials.from_young(young, poisson, **fluid)
-    mu = number(table, "mu", "materials", minimum=0)
-    return Materials(lam=number(table, "lam", "materials", minimum=-2 * mu / dim), mu=mu, **fluid)
+            raise CaseError(f"{where}.poisson: expected a number in (-1, 0.5), got {poisson!r}")
+        return lame(young, poisson)
+    values = {}
+    if required or "mu" in table:
+        values["mu"] = number(table, "mu", where, minimum=0)
+    if required or "lam" in table:
+        values["lam"] = number(table, "lam", where, minimum=-2 * values.get("mu", mu_default) / dim)
+    return values
+
+
+def read_region_materials(table: dict, materials: Materials, phases: Phases, dim: int, young_allowed: bool = False,
+                          discretisation: Discretisation | None = None) -> Materials:
+    """``materials`` with the regions' own (``[materials.NAME]``, the sub-tables of ``table``): a fluid region's
+    rho_fluid and nu, a solid region's rho_solid and lam, mu (or young, poisson), each optional. The regions of
+    ``phases``; with solid regions of their own materials σ⁰ comes from the displacement (``initial_stress``)."""
+    for name, own in table.items():
+        if not isinstance(own, dict):
+            continue
+        where = f"materials.{name}"
+        if name not in phases.regions:
+            raise CaseError(f"{where}: no cell region of that name in the mesh; expected one of "
+                            f"{', '.join(phases.regions)}")
+        fluid = name in phases.fluid
+        keys = set(FLUID_FIELDS) if fluid else set(SOLID_FIELDS) | ({"young", "poisson"} if young_allowed else set())
+        check_keys(own, keys, where)
+        values = {key: number(own, key, where, minimum=0) for key in ("rho_fluid", "nu", "rho_solid") if key in own}
+        if not fluid:
+            values.update(_lame(own, where, dim, young_allowed, required=False, mu_default=materials.mu))
+        materials = materials.with_region(name, **values)
+    if discretisation is not None and discretisation.initial_stress == "projection" \
+            and not materials.uniform(phases.solid):
+        raise CaseError("discretisation.initial_stress: \"projection\" is not supported with solid regions of their "
+                        "own materials; expected \"displacement\"")
+    return materials
 
 
 def kinematic_note(nu: float, rho_fluid: float) -> None:
@@ -229,4 +269,7 @@ def load_study_case(source: str | Path | dict, overrides: dict | None = None) ->
     fields, dim = read_case(doc, path)
     exact = read_exact(section(doc, "exact"), dim)
     coarse = build_mesh(fields["geometry"], dim)
+    phases = geometry_phases(fields["geometry"]["kind"], coarse, fields["geometry"].get("regions"))
+    fields["materials"] = read_region_materials(section(doc, "materials"), fields["materials"], phases, dim,
+                                                discretisation=fields["discretisation"])
     return Case(coarse_mesh=lambda: coarse, exact=exact, **fields)

@@ -38,8 +38,9 @@ KEYS: list[Key] = [
         '`elastic_tube`: fluid cylinder along x in a solid wall; boundaries `inflow`, `outflow`, `solid_ends`'),
     Key('geometry', ('path', 'regions'), 'required, none',
         "relative to the case file's folder; `mesh`: a gmsh `.msh` (2.2/4.x; second-order cells curve the mesh) or "
-        'netgen `.vol` file; `cad`: a STEP, BREP or IGES file, `regions` (cad only) maps its parts to '
-        '`fluid`/`solid` ([docs/meshes.md](meshes.md))'),
+        'netgen `.vol` file; `cad`: a STEP, BREP or IGES file. `regions` (`mesh`, `cad`) maps cell regions (a CAD '
+        'file\'s parts, by name or number) to `fluid` or `solid`, e.g. `{ wall = "solid", plaque = "solid" }`; a '
+        'CAD part mapped by a name of its own keeps it ([docs/meshes.md](meshes.md))'),
     Key('materials', ('rho_fluid', 'rho_solid'), 'required',
         'densities ρ_F, ρ_S > 0'),
     Key('materials', ('nu',), 'required',
@@ -49,6 +50,11 @@ KEYS: list[Key] = [
         'Lamé constants, μ > 0, λ > −2μ/d: σ_S = λ tr ε(u) I + 2μ ε(u)'),
     Key('materials', ('young', 'poisson'), '—',
         '`run` only, instead of `lam`, `mu`: E > 0, −1 < ν_P < 1/2'),
+    Key('materials.NAME', ('rho_fluid', 'nu'), '`[materials]`',
+        "a fluid cell region's own ([docs/commands.md](commands.md#several-materials))"),
+    Key('materials.NAME', ('rho_solid', 'lam', 'mu', 'young', 'poisson'), '`[materials]`',
+        "a solid cell region's own (`young`, `poisson`: `run` only); with solid regions of their own, "
+        '`initial_stress = "displacement"`'),
     Key('time', ('T', 'dt'), 'required',
         'final time and step, 0 < dt ≤ T'),
     Key('time', ('scheme',), '`"backward_euler"`',
@@ -87,11 +93,28 @@ KEYS: list[Key] = [
     Key('data', ('force_fluid', 'force_solid', 'velocity0', 'displacement0'), 'zero',
         '`run` only: body forces and initial data'),
     Key('boundary.NAME', ('velocity', 'traction'), 'rest on `fluid_wall`, `solid_wall`; else traction-free',
-        '`run` only: Dirichlet v, or σn'),
+        '`run` only, one condition per boundary: Dirichlet v, or σn (d expressions)'),
+    Key('boundary.NAME', ('flow',), '—',
+        'a flow-rate inflow Q(t) into the domain: an expression of t, or `{ table = "q.csv" }` (rows time, Q; '
+        'linear in between), the velocity normal to a straight (2D) or flat circular (3D) boundary with the discrete '
+        'flux Q ([docs/commands.md](commands.md#outlets-inflows-and-support))'),
+    Key('boundary.NAME', ('profile', 'period', 'harmonics'), '`"parabolic"`, none, 10',
+        'with `flow`: `"parabolic"`, `"plug"` or `"womersley"` (from the Fourier series of Q over `period`, '
+        '`harmonics` terms, 1–100); `period` also makes a table periodic'),
+    Key('boundary.NAME', ('resistance', 'distal_pressure'), '—, 0',
+        'an outlet σn = −(P_d + R Q) n, Q = ∫ v·n; P_d a number or an expression of t'),
+    Key('boundary.NAME', ('windkessel',), '—',
+        '`{ proximal = R_p, capacitance = C, distal = R_d, distal_pressure = P_d }`: the RCR outlet '
+        'C dP_c/dt = Q − (P_c − P_d)/R_d, σn = −(P_c + R_p Q) n'),
+    Key('boundary.NAME', ('support',), '—',
+        '`{ stiffness = k, damping = c }` on a solid boundary: tissue support σn = −k u − c v'),
     Key('output', ('every',), '10',
         '`run` only: VTK output every so many steps'),
     Key('output', ('probes', 'lines'), 'none',
         'points (every step); `{ start = [...], end = [...], n = 20 }`'),
+    Key('output', ('surfaces',), 'none',
+        'boundaries (`"interface"` too): flow, mean pressure, area, force every step in `surfaces.csv` and '
+        '`surfaces.png`; with `"interface"`, its traction and wall shear stress in `vtk/interface.pvd`'),
     Key('output', ('vtk', 'subdivision'), 'true, 0',
         'write VTU files; their subdivision, 0–3'),
     Key('output', ('continuous',), 'false',
@@ -102,7 +125,8 @@ KEYS: list[Key] = [
 
 
 #: The sections' titles on the page.
-SECTIONS = {"geometry": "[geometry]", "materials": "[materials]", "time": "[time]",
+SECTIONS = {"geometry": "[geometry]", "materials": "[materials]", "materials.NAME": "[materials.NAME]",
+            "time": "[time]",
             "discretisation": "[discretisation]", "solver": "[solver.petsc]", "exact": "[exact]", "data": "[data]",
             "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]"}
 

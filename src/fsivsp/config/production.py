@@ -1,12 +1,12 @@
 """Run case files (``fsivsp run CASE.toml``): every field read and validated before any heavy work
 (`load_run_case`) into a `RunCase`, and its boundary conditions (`boundary_conditions`).
 
-Case file sections: ``[geometry]`` (with ``refine``: uniform refinements), ``[materials]`` (lam/mu or young/poisson),
-``[time]``, ``[discretisation]`` (family, order, solver, tolerance, max_iterations, curved, initial_stress,
-initial_velocity), ``[data]`` (force_fluid, force_solid, velocity0, displacement0; default zero),
-``[boundary.NAME]`` (``velocity = [...]`` Dirichlet or ``traction = [...]`` σn; default: zero
-velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes,
-lines, vtk, subdivision, continuous) and ``[checkpoint]`` (every).
+Case file sections: ``[geometry]`` (with ``refine``: uniform refinements; ``regions`` for mesh and CAD files),
+``[materials]`` (lam/mu or young/poisson; ``[materials.NAME]`` a cell region's own), ``[time]``, ``[discretisation]``
+(family, order, solver, tolerance, max_iterations, curved, initial_stress, initial_velocity), ``[data]``
+(force_fluid, force_solid, velocity0, displacement0; default zero), ``[boundary.NAME]`` (`boundaries`; default: zero
+velocity on fluid_wall and solid_wall, zero traction elsewhere), ``[output]`` (every, probes, lines, surfaces, vtk,
+subdivision, continuous) and ``[checkpoint]`` (every).
 """
 from __future__ import annotations
 
@@ -15,19 +15,17 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CaseError, is_number, is_whole
-from ..geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
+from ..geometry import Phases, geometry_phases, refined
 from ..model.expressions import ExpressionError, parse_vector
-from ..model.fields import Field
-from .case import Case, build_mesh, read_case
+from .boundaries import check_boundaries, read_boundaries
+from .case import Case, build_mesh, read_case, read_region_materials
 from .overrides import case_document
 from .readers import check_command, check_keys, section
 
 RUN_SECTIONS = {"geometry", "materials", "time", "discretisation", "solver", "data", "boundary", "output", "checkpoint"}
 DATA_KEYS = {"force_fluid", "force_solid", "velocity0", "displacement0"}
-OUTPUT_KEYS = {"every", "probes", "lines", "subdivision", "vtk", "continuous"}
+OUTPUT_KEYS = {"every", "probes", "lines", "surfaces", "subdivision", "vtk", "continuous"}
 CHECKPOINT_KEYS = {"every"}
-#: ``[boundary.NAME]``: one of them, a vector of d expressions
-BOUNDARY_KEYS = {"velocity", "traction"}
 #: ``[geometry] refine``: uniform refinements of the generated or read mesh (each multiplies the cells by 2^d)
 MAX_REFINE = 6
 
@@ -35,15 +33,17 @@ MAX_REFINE = 6
 @dataclass(kw_only=True)
 class RunCase(Case):
     """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
-    and refined at load), data, boundaries, output and checkpoints."""
+    and refined at load) and the media of its cell regions (``phases``), data, boundaries (`boundaries`: each
+    (kind, value)), output and checkpoints."""
 
     dim: int
     data: dict[str, list]
-    boundaries: dict[str, tuple[str, list]]
+    boundaries: dict[str, tuple[str, Any]]
     output: dict[str, Any]
     checkpoint_every: int
     mesh: Any = field(default=None, repr=False)
     overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
+    phases: Phases = field(default_factory=Phases)
 
 
 def _whole(table: dict, key: str, where: str, default: int) -> int:
@@ -91,33 +91,22 @@ def read_output(table: dict, dim: int) -> dict[str, Any]:
     subdivision = table.get("subdivision", 0)
     if not is_whole(subdivision, 0, 3):
         raise CaseError(f"output.subdivision: expected a whole number from 0 to 3, got {subdivision!r}")
+    surfaces = table.get("surfaces", [])
+    if not isinstance(surfaces, list) or not all(isinstance(name, str) for name in surfaces) \
+            or len(set(surfaces)) != len(surfaces):
+        raise CaseError(f"output.surfaces: expected a list of boundary names (\"interface\" too), got {surfaces!r}")
     return {"every": _whole(table, "every", "output", 10),
             "probes": _points(table.get("probes", []), "output.probes", dim),
-            "lines": lines, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
+            "lines": lines, "surfaces": surfaces, "vtk": vtk, "subdivision": subdivision, "continuous": continuous}
 
 
-def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
-    boundaries = {}
-    for name, spec in table.items():
-        where = f"boundary.{name}"
-        if not isinstance(spec, dict):
-            raise CaseError(f"{where}: expected a table [boundary.{name}] with velocity or traction, got {spec!r}")
-        check_keys(spec, BOUNDARY_KEYS, where)
-        if len(spec) != 1:
-            raise CaseError(f"{where}: expected exactly one of velocity = [...] or traction = [...]")
-        kind, value = next(iter(spec.items()))
-        boundaries[name] = (kind, _vector(value, f"{where}.{kind}", dim))
-    return boundaries
-
-
-def check_boundaries(boundaries: dict, mesh) -> None:
+def check_surfaces(names: list[str], mesh) -> None:
+    """``[output] surfaces`` name boundaries of the mesh."""
     present = set(mesh.GetBoundaries())
-    for name in boundaries:
-        if name == INTERFACE:
-            raise CaseError("boundary.interface: the interface is not a boundary (its conditions are built in)")
+    for name in names:
         if name not in present:
-            names = ", ".join(sorted(present - {INTERFACE}))
-            raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
+            raise CaseError(f"output.surfaces: no boundary {name!r} in the mesh; expected some of "
+                            f"{', '.join(sorted(present))}")
 
 
 def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
@@ -130,7 +119,7 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
     data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
-    boundaries = read_boundaries(section(doc, "boundary", required=False), dim)
+    boundaries = read_boundaries(section(doc, "boundary", required=False), dim, path.parent)
     output = read_output(section(doc, "output", required=False), dim)
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
@@ -141,18 +130,10 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
     if refine:
         mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
-    check_boundaries(boundaries, mesh)
+    phases = geometry_phases(fields["geometry"]["kind"], mesh, fields["geometry"].get("regions"))
+    fields["materials"] = read_region_materials(section(doc, "materials"), fields["materials"], phases, dim,
+                                                young_allowed=True, discretisation=fields["discretisation"])
+    check_boundaries(boundaries, mesh, phases)
+    check_surfaces(output["surfaces"], mesh)
     return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
-                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
-
-
-def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
-    """Dirichlet and traction data per boundary; walls default to rest, other boundaries to σn = 0."""
-    present = set(case.mesh.GetBoundaries())
-    velocity, traction = {}, {}
-    for name in (FLUID_WALL, SOLID_WALL):
-        if name in present and name not in case.boundaries:
-            velocity[name] = Field([0] * case.dim)
-    for name, (kind, value) in case.boundaries.items():
-        (velocity if kind == "velocity" else traction)[name] = Field(value)
-    return velocity, traction
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}), phases=phases)

@@ -21,6 +21,7 @@ import scipy.sparse as sp
 import sympy
 
 from ..fem.forms import DATA_BONUS, region_integral
+from ..geometry import FLUID, SOLID, Phases, pattern
 from ..model.expressions import SPACE, separate_time_vector, to_coefficient, to_function
 from ..runtime.threads import integrate
 from ..solvers import compact
@@ -61,31 +62,38 @@ def _shaped(expr, comps):
     return sympy.Matrix(expr.rows, expr.cols, comps) if isinstance(expr, sympy.MatrixBase) else comps[0]
 
 
-def _integral(integrand, region, bonus: int):
+def _integral(integrand, region, bonus: int, phases: Phases):
     """∫_region integrand (Ω if None) with ``DATA_BONUS`` extra quadrature order everywhere and
     ``bonus`` more on the fluid cells (where bubbles live, see `Spaces.bonus_intorder`). The Gram
     matrices and the projections of the exact fields both use it: with different rules a field that
     lies in the discrete space is not projected onto itself (on curved cells the integrands are
     rational, and the error norm had a floor of 5e-8)."""
-    return region_integral(integrand, region, bonus, DATA_BONUS)
+    return region_integral(integrand, region, bonus, DATA_BONUS, phases)
 
 
-def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], bonus: int = 0) -> ngs.BaseMatrix:
+def region_pattern(region: str | None, phases: Phases) -> str | None:
+    """The cell-region pattern of a `Part`'s region: Ω_F, Ω_S of ``phases`` for `FLUID`, `SOLID`, else itself."""
+    return phases.pattern(region) if region in (FLUID, SOLID) else region
+
+
+def gram_matrix(space: ngs.FESpace, members: list[tuple[Callable, list[Part]]], bonus: int = 0,
+                phases: Phases = Phases()) -> ngs.BaseMatrix:
     """The Gram matrix of the sum of the norms (select, parts) on ``space``."""
     gram = ngs.BilinearForm(space, symmetric=True)
     for select, parts in members:
         u, w = (select(f) for f in space.TnT())
         for region, op, _ in parts:
-            gram += _integral(ngs.InnerProduct(op(u), op(w)), region, bonus)
+            gram += _integral(ngs.InnerProduct(op(u), op(w)), region, bonus, phases)
     return compact(gram.Assemble().mat)
 
 
-def connected_parts(mesh: ngs.Mesh, region: str) -> np.ndarray:
-    """The connected part (0, 1, …; cells sharing a vertex) of each vertex of ``region``, −1 elsewhere."""
+def connected_parts(mesh: ngs.Mesh, regions: tuple[str, ...]) -> np.ndarray:
+    """The connected part (0, 1, …; cells sharing a vertex) of each vertex of the cell ``regions``, −1 elsewhere."""
     import scipy.sparse.csgraph as csgraph
 
     elements = (mesh.ngmesh.Elements3D() if mesh.dim == 3 else mesh.ngmesh.Elements2D()).NumPy()
-    mine = elements["index"] == mesh.GetMaterials().index(region) + 1
+    names = mesh.GetMaterials()
+    mine = np.isin(elements["index"], [i + 1 for i, name in enumerate(names) if name in regions])
     nodes = elements["nodes"][mine][:, : mesh.dim + 1].astype(np.int64) - 1
     cells = np.repeat(np.arange(len(nodes)), nodes.shape[1])
     incidence = sp.csr_matrix((np.ones(nodes.size), (cells, nodes.ravel())), shape=(len(nodes), mesh.nv))
@@ -95,25 +103,25 @@ def connected_parts(mesh: ngs.Mesh, region: str) -> np.ndarray:
     return part
 
 
-def rigid_motions(space: ngs.FESpace, select: Callable, region: str) -> list[ngs.BaseVector]:
-    """The kernel of ε on ``region``: translations and rotations of each connected part of it,
+def rigid_motions(space: ngs.FESpace, select: Callable, regions: tuple[str, ...]) -> list[ngs.BaseVector]:
+    """The kernel of ε on the cell ``regions``: translations and rotations of each connected part of them,
     interpolated (exactly: they are affine) in the unknown ``select`` picks, zero elsewhere."""
     mesh = space.mesh
     x, y, z = ngs.x, ngs.y, ngs.z
     fields = [(1, 0), (0, 1), (-y, x)] if mesh.dim == 2 else \
         [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-y, x, 0), (-z, 0, x), (0, -z, y)]
-    part = connected_parts(mesh, region)
+    part = connected_parts(mesh, regions)
     parts = part.max(initial=-1) + 1  # none on a rank without cells of the region (MPI)
     owner = None
     if parts > 1:  # the part of each dof, from the cells of the region
         owner = np.full(space.ndof, -1)
         for el in mesh.Elements(ngs.VOL):
-            if el.mat == region:
+            if el.mat in regions:
                 owner[[d for d in space.GetDofNrs(el) if d >= 0]] = part[el.vertices[0].nr]
     motions = []
     for field in fields:
         gf = ngs.GridFunction(space)
-        select(gf).Set(ngs.CF(field), definedon=mesh.Materials(region))
+        select(gf).Set(ngs.CF(field), definedon=mesh.Materials(pattern(regions)))
         for k in range(parts):
             vector = gf.vec.CreateVector()
             vector.data = gf.vec
@@ -133,7 +141,8 @@ class ErrorNorm:
     """
 
     def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int, bonus: int = 0,
-                 offset: ngs.CoefficientFunction | None = None, kernel: list[ngs.BaseVector] | None = None):
+                 offset: ngs.CoefficientFunction | None = None, kernel: list[ngs.BaseVector] | None = None,
+                 phases: Phases = Phases()):
         """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`;
         ``kernel``: a basis of the kernel of the Gram matrix on the dofs it sees (Cε: `rigid_motions`). The
         projections are then solved for the singular G (`projection.gram_solver`), and Σ T_k π_k − u_h is cleared of its
@@ -142,9 +151,9 @@ class ErrorNorm:
         if offset is not None and len(parts) != 1:
             raise ValueError("ErrorNorm: an offset needs a norm of one part")
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder
-        self.bonus, self.offset = bonus, offset
+        self.bonus, self.offset, self.phases = bonus, offset, phases
         w = select(space.TestFunction())
-        self._gram = gram_matrix(space, [(select, parts)], bonus)
+        self._gram = gram_matrix(space, [(select, parts)], bonus, phases)
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
@@ -170,7 +179,7 @@ class ErrorNorm:
         for _, cfs in self._terms:
             load = ngs.LinearForm(space)
             for (region, op, _), cf in zip(parts, cfs):
-                load += _integral(ngs.InnerProduct(cf, op(w)), region, bonus)
+                load += _integral(ngs.InnerProduct(cf, op(w)), region, bonus, phases)
             pi = ngs.GridFunction(space)
             project(load.Assemble().vec, pi.vec)
             self._projections.append(pi)
@@ -188,7 +197,8 @@ class ErrorNorm:
 
     def _integrate(self, cf, region) -> float:
         mesh = self.space.mesh
-        return integrate(cf, mesh, definedon=mesh.Materials(region) if region else None, order=self.intorder)
+        where = region_pattern(region, self.phases)
+        return integrate(cf, mesh, definedon=mesh.Materials(where) if where else None, order=self.intorder)
 
     def _used_dofs(self) -> np.ndarray:
         """The dofs the norm sees (nonzero diagonal of G), as a mask."""
@@ -245,7 +255,7 @@ class NormGroup:
         self.norms = norms
         space = next(iter(norms.values())).space
         self._gram = gram_matrix(space, [(n.select, n.parts) for n in norms.values() if n.separable],
-                                 max(n.bonus for n in norms.values()))
+                                 max(n.bonus for n in norms.values()), next(iter(norms.values())).phases)
         self._diff = self._gram.CreateColVector()
         self._work = self._gram.CreateColVector()
 

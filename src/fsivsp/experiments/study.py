@@ -7,12 +7,26 @@ from dataclasses import replace
 
 import ngsolve as ngs
 import numpy as np
+import sympy
 
 from ..config.case import Case
 from ..fem.forms import elastic_stress
 from ..fem.spaces import Spaces, base_order, build_spaces
-from ..geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, check_regions, distribute, refined, region_counts
+from ..geometry import (
+    FLUID,
+    FLUID_WALL,
+    SOLID,
+    SOLID_WALL,
+    Phases,
+    check_regions,
+    distribute,
+    geometry_phases,
+    pattern,
+    refined,
+    region_counts,
+)
 from ..geometry.curved import curve
+from ..model import manufactured
 from ..model.data import INITIAL_STRESS, Data
 from ..model.fields import Field
 from ..model.manufactured import ExactSolution
@@ -30,10 +44,22 @@ def dirichlet_boundaries(mesh: ngs.Mesh) -> str:
 
 
 def manufactured_data(exact: ExactSolution, mat: Materials, dirichlet: str, initial_stress: str,
-                      initial_velocity: str = "interpolation") -> Data:
-    """All data of the model derived from the exact solution (see `manufactured`)."""
+                      initial_velocity: str = "interpolation", phases: Phases = Phases()) -> Data:
+    """All data of the model derived from the exact solution (see `manufactured`); with materials that differ
+    between the cell regions of ``phases``, the regions' forces and the traction jumps between them
+    (`ExactSolution.region_data`)."""
     if initial_stress not in INITIAL_STRESS:
         raise ValueError(f"initial_stress: expected one of {', '.join(INITIAL_STRESS)}, got {initial_stress!r}")
+    if not mat.uniform(phases.regions):
+        if initial_stress == "projection":
+            raise ValueError("initial_stress: \"projection\" is not supported with region-wise materials; expected "
+                             "\"displacement\"")
+        forces, stresses = exact.region_data(mat, {region: phases.phase(region) for region in phases.regions})
+        return Data(velocity0=Field(exact.at_time(0).velocity), pressure0=Field(exact.at_time(0).pressure),
+                    initial_velocity=initial_velocity, displacement0=Field(exact.at_time(0).displacement),
+                    boundary_velocity={dirichlet: Field(exact.velocity)} if dirichlet else {},
+                    region_forces={r: Field(f) for r, f in forces.items()},
+                    region_tractions={r: Field(sigma) for r, sigma in stresses.items()})
     return Data(
         velocity0=Field(exact.at_time(0).velocity),
         pressure0=Field(exact.at_time(0).pressure),
@@ -54,16 +80,28 @@ class Errors:
 
     def __init__(self, scheme: Scheme, exact: ExactSolution):
         spaces, mat = scheme.spaces, scheme.materials
-        d = spaces.mesh.dim
+        phases, d = spaces.phases, spaces.mesh.dim
         intorder, bonus = self.intorder(spaces), spaces.bonus_intorder
         mixed = {f"v{j + 1}": ErrorNorm(spaces.mixed, component(0), h1_component(j, d), exact.velocity[j], intorder,
-                                        bonus)
+                                        bonus, phases=phases)
                  for j in range(d)}
         mixed["p"] = self.pressure(spaces, exact)
         self.mixed = NormGroup(mixed)
-        strain = [(SOLID, lambda u: elastic_stress(u, mat, d), lambda e: e)]
-        self.stress = ErrorNorm(spaces.mixed, component(0), strain, exact.solid_stress(mat), intorder, bonus,
-                                offset=scheme.stress_offset, kernel=rigid_motions(spaces.mixed, component(0), SOLID))
+        kernel = rigid_motions(spaces.mixed, component(0), phases.solid)
+        if mat.uniform(phases.solid):
+            strain = [(SOLID, lambda u: elastic_stress(u, mat, d), lambda e: e)]
+            self.stress = ErrorNorm(spaces.mixed, component(0), strain, exact.solid_stress(mat), intorder, bonus,
+                                    offset=scheme.stress_offset, kernel=kernel, phases=phases)
+            return
+        # σ_r = C_r ε(u) on each group of solid regions of equal materials, measured against the displacement
+        groups: dict[tuple, list[str]] = {}
+        for region in phases.solid:
+            groups.setdefault(tuple(mat.of(region).constants().items()), []).append(region)
+        strain = [(pattern(names), lambda u, m=mat.of(names[0]): elastic_stress(u, m, d),
+                   lambda e, m=mat.of(names[0]): manufactured.elastic_stress(list(e), m, d))
+                  for names in groups.values()]
+        self.stress = ErrorNorm(spaces.mixed, component(0), strain, sympy.Matrix(exact.displacement), intorder,
+                                bonus, kernel=kernel, phases=phases)
 
     @staticmethod
     def intorder(spaces: Spaces) -> int:
@@ -74,7 +112,7 @@ class Errors:
     def pressure(cls, spaces: Spaces, exact: ExactSolution) -> ErrorNorm:
         """‖p − p_h‖_{L²(Ω_F)} alone, for X_h's coefficient vectors."""
         return ErrorNorm(spaces.mixed, component(1), l2(FLUID), exact.pressure, cls.intorder(spaces),
-                         spaces.bonus_intorder)
+                         spaces.bonus_intorder, phases=spaces.phases)
 
     def __call__(self, scheme: Scheme) -> dict[str, float]:
         errors = self.mixed(scheme.state.vec, scheme.time)
@@ -87,15 +125,20 @@ def paper_dofs(counts: dict[str, int]) -> int:
     return 2 * (counts["vertices"] - counts["boundary_vertices"]) + 2 * counts["fluid_cells"] + counts["fluid_vertices"]
 
 
+def case_phases(case: Case, mesh: ngs.Mesh) -> Phases:
+    """The media of ``mesh``'s cell regions by the case's ``[geometry]`` (its kind and ``regions``)."""
+    return geometry_phases(case.geometry.get("kind", ""), mesh, case.geometry.get("regions"))
+
+
 def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     """The scheme of ``case`` on ``mesh`` (its regions checked, curved if the case says so) and its error norms."""
-    check_regions(mesh)
+    phases = check_regions(mesh, case_phases(case, mesh))
     disc = case.discretisation
     if disc.curved:
         curve(mesh, base_order(disc.family, disc.order))
-    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh))
+    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh), phases)
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), disc.initial_stress,
-                             disc.initial_velocity)
+                             disc.initial_velocity, phases)
     scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)
     return scheme, Errors(scheme, case.exact)
 
@@ -104,7 +147,7 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
     """Run the scheme on one mesh; return the record of this level (errors, dofs, timings). Under mpirun
     ``mesh`` is rank 0's whole mesh (None on the others), distributed here."""
     start = clock.perf_counter()
-    counts, h = parallel.shared(lambda: (region_counts(mesh), max_edge_length(mesh)))
+    counts, h = parallel.shared(lambda: (region_counts(mesh, case_phases(case, mesh)), max_edge_length(mesh)))
     scheme, errors_at = discretise(case, distribute(mesh))
     spaces = scheme.spaces
     setup = clock.perf_counter() - start

@@ -2,15 +2,20 @@
 
 Each function returns an (un-assembled) NGSolve form; the scheme assembles them
 once. Read them against METHOD.md: v, w velocity trial/test, p, q pressure,
-σ, τ stress.
+σ, τ stress. Ω_F and Ω_S are the cell regions of the spaces' `Phases`; the constants ρ_F, ρ_S, ν, λ, μ are numbers, or
+region-wise CoefficientFunctions where the regions' materials differ (`coefficients`). A tissue support on a solid
+boundary (`model.data.Support`) adds its spring to K and its dashpot to K_F (`boundary_mass`).
 """
 from __future__ import annotations
+
+from collections.abc import Mapping
 
 import ngsolve as ngs
 from ngsolve import InnerProduct, Trace, div
 
-from ..geometry import FLUID, SOLID
-from ..model.materials import Materials
+from ..geometry import FLUID, SOLID, Phases, pattern
+from ..model.data import Support
+from ..model.materials import FLUID_FIELDS, Materials
 from .spaces import Spaces
 
 #: Extra quadrature order for integrands with data (loads, projections of exact fields, the Gram
@@ -18,13 +23,16 @@ from .spaces import Spaces
 DATA_BONUS = 2
 
 
-def region_integral(integrand, region: str | None = None, fluid_bonus: int = 0, extra: int = 0):
-    """∫_region integrand (Ω if None) with ``extra`` quadrature orders everywhere and ``fluid_bonus``
-    more on the fluid cells."""
-    fluid = integrand * ngs.dx(FLUID, bonus_intorder=fluid_bonus + extra)
+def region_integral(integrand, region: str | None = None, fluid_bonus: int = 0, extra: int = 0,
+                    phases: Phases = Phases()):
+    """∫_region integrand with ``extra`` quadrature orders everywhere and ``fluid_bonus`` more on the fluid cells:
+    ``region`` `FLUID` (Ω_F of ``phases``), `SOLID` (Ω_S), None (Ω), or the pattern of some solid regions."""
+    if region not in (None, FLUID, SOLID):
+        return integrand * ngs.dx(region, bonus_intorder=extra)
+    fluid = integrand * ngs.dx(phases.pattern(FLUID), bonus_intorder=fluid_bonus + extra)
     if region == FLUID:
         return fluid
-    solid = integrand * ngs.dx(SOLID, bonus_intorder=extra)
+    solid = integrand * ngs.dx(phases.pattern(SOLID), bonus_intorder=extra)
     return solid if region == SOLID else fluid + solid
 
 
@@ -32,7 +40,21 @@ def integral(integrand, spaces: Spaces, region: str | None = None, extra: int = 
     """∫_region integrand (Ω if None), with the extra quadrature order that fluid cells with
     bubbles need (`Spaces.bonus_intorder`), plus ``extra`` everywhere (for data that are not
     polynomials)."""
-    return region_integral(integrand, region, spaces.bonus_intorder, extra)
+    return region_integral(integrand, region, spaces.bonus_intorder, extra, spaces.phases)
+
+
+def coefficients(mat: Materials, spaces: Spaces) -> Materials:
+    """The constants the forms multiply in: ``mat`` itself where every cell region of the spaces has the same
+    values, else each constant that differs between regions as ``mesh.MaterialCF`` over the regions of its medium
+    (`Materials.regions`, the defaults where a region has none). Two regions of equal materials thus assemble
+    exactly as one."""
+    values = {}
+    for name, default in mat.constants().items():
+        regions = spaces.phases.names(FLUID if name in FLUID_FIELDS else SOLID)
+        table = {region: getattr(mat.of(region), name) for region in regions}
+        values[name] = default if all(v == default for v in table.values()) else \
+            spaces.mesh.MaterialCF({pattern([region]): value for region, value in table.items()}, default=0)
+    return mat if all(values[k] is v for k, v in mat.constants().items()) else Materials(**values)
 
 
 def eps(v):
@@ -45,26 +67,46 @@ def elastic_stress(v, mat: Materials, dim: int):
     return mat.lam * div(v) * ngs.Id(dim) + 2 * mat.mu * eps(v)
 
 
-def density(mat: Materials, mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+def density(mat: Materials, spaces: Spaces) -> ngs.CoefficientFunction:
     """ρ = ρ_F in Ω_F, ρ_S in Ω_S."""
-    return mesh.MaterialCF({FLUID: mat.rho_fluid, SOLID: mat.rho_solid}, default=0)
+    phases = spaces.phases
+    return spaces.mesh.MaterialCF({phases.pattern(FLUID): mat.rho_fluid, phases.pattern(SOLID): mat.rho_solid},
+                                  default=0)
 
 
-def step_matrix(spaces: Spaces, mat: Materials, dt: float, **storage) -> ngs.BilinearForm:
+def boundary_mass(spaces: Spaces, supports: Mapping[str, Support] | None, weight):
+    """Σ_Γ weight(support) ∫_Γ v·w ds over the supported boundaries Γ (None where every weight vanishes): the
+    tissue support σn = −k u − c v adds k M_Γ to K and c M_Γ to K_F."""
+    (v, _), (w, _) = spaces.mixed.TnT()
+    terms = [weight(support) * InnerProduct(v, w) * ngs.ds(name) for name, support in (supports or {}).items()
+             if weight(support)]
+    return sum(terms[1:], terms[0]) if terms else None
+
+
+def _with_supports(form: ngs.BilinearForm, spaces: Spaces, supports: Mapping[str, Support] | None,
+                   weight) -> ngs.BilinearForm:
+    if (extra := boundary_mass(spaces, supports, weight)) is not None:
+        form += extra
+    return form
+
+
+def step_matrix(spaces: Spaces, mat: Materials, dt: float, supports: Mapping[str, Support] | None = None,
+                **storage) -> ngs.BilinearForm:
     """Left-hand side of step 1 of (5.1), symmetric and indefinite:
     ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w) + λΔt² ∫_S div v div w
-    − Δt ∫_F p div w − Δt ∫_F q div v. ``storage``: BilinearForm flags (symmetric, symmetric_storage)."""
+    − Δt ∫_F p div w − Δt ∫_F q div v, plus (cΔt + kΔt²) ∫_Γ v·w on each supported boundary Γ.
+    ``storage``: BilinearForm flags (symmetric, symmetric_storage)."""
     (v, p), (w, q) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed, **storage)
     a += velocity_block(v, w, spaces, mat, dt)
     a += integral(-dt * p * div(w) - dt * q * div(v), spaces, FLUID)
-    return a
+    return _with_supports(a, spaces, supports, lambda s: s.damping * dt + s.stiffness * dt**2)
 
 
 def velocity_block(v, w, spaces: Spaces, mat: Materials, dt: float):
     """The velocity block A of `step_matrix`: ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w)
     + λΔt² ∫_S div v div w (an integrand for any velocity-like trial and test functions v, w)."""
-    return (integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+    return (integral(density(mat, spaces) * InnerProduct(v, w), spaces)
             + integral(2 * mat.nu * dt * InnerProduct(eps(v), eps(w)), spaces, FLUID)
             + integral(2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w),
                        spaces, SOLID))
@@ -74,12 +116,12 @@ def velocity_mass(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     """∫_Ω ρ v·w on X_h (the ρ vⁿ⁻¹ term of the right-hand side)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
-    a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+    a += integral(density(mat, spaces) * InnerProduct(v, w), spaces)
     return a
 
 
-def solid_stiffness(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
-    """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h.
+def solid_stiffness(spaces: Spaces, mat: Materials, supports: Mapping[str, Support] | None = None) -> ngs.BilinearForm:
+    """K = ∫_S (λ div v I + 2μ ε(v)):ε(w) on X_h, plus k ∫_Γ v·w on each supported boundary Γ.
 
     By (18) the stress update is exact, σⁿ_h = σ*_h + M_σ⁻¹C uⁿ_h with the displacement uⁿ_h (5), and
     ∫_S σⁿ_h:ε(w) = ∫_S σ*_h:ε(w) + K uⁿ_h: the ∫_S σ:ε(w) terms of step 1 without stress-space
@@ -87,27 +129,29 @@ def solid_stiffness(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
     a += integral(InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
-    return a
+    return _with_supports(a, spaces, supports, lambda s: s.stiffness)
 
 
-def fluid_viscous(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
-    """K_F = 2ν ∫_F ε(v):ε(w) on X_h (the θ-scheme's lagged viscous term and its energy)."""
+def fluid_viscous(spaces: Spaces, mat: Materials, supports: Mapping[str, Support] | None = None) -> ngs.BilinearForm:
+    """K_F = 2ν ∫_F ε(v):ε(w) on X_h, plus c ∫_Γ v·w on each supported boundary Γ (the θ-scheme's lagged
+    viscous term and its energy)."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
     a += integral(2 * mat.nu * InnerProduct(eps(v), eps(w)), spaces, FLUID)
-    return a
+    return _with_supports(a, spaces, supports, lambda s: s.damping)
 
 
-def lagged_operator(spaces: Spaces, mat: Materials, stiffness: float, viscous: float) -> ngs.BilinearForm:
+def lagged_operator(spaces: Spaces, mat: Materials, stiffness: float, viscous: float,
+                    supports: Mapping[str, Support] | None = None) -> ngs.BilinearForm:
     """R = ∫_Ω ρ v·w − ``stiffness`` K − ``viscous`` K_F on X_h: the operator a time scheme applies to the
-    velocity history (`timeschemes`; backward Euler: ρM − Δt² K)."""
+    velocity history (`timeschemes`; backward Euler: ρM − Δt² K), K and K_F with the supports' terms."""
     (v, _), (w, _) = spaces.mixed.TnT()
     a = ngs.BilinearForm(spaces.mixed)
-    a += integral(density(mat, spaces.mesh) * InnerProduct(v, w), spaces)
+    a += integral(density(mat, spaces) * InnerProduct(v, w), spaces)
     a += integral(-stiffness * InnerProduct(elastic_stress(v, mat, spaces.mesh.dim), eps(w)), spaces, SOLID)
     if viscous:
         a += integral(-viscous * 2 * mat.nu * InnerProduct(eps(v), eps(w)), spaces, FLUID)
-    return a
+    return _with_supports(a, spaces, supports, lambda s: -stiffness * s.stiffness - viscous * s.damping)
 
 
 def initial_projection(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
@@ -148,25 +192,7 @@ def stress_mass(spaces: Spaces) -> ngs.BilinearForm:
     return a
 
 
-# -- the norm of the step (the iterative solver's block preconditioner, `solvers.iterative`) -------------
-
-def velocity_component_block(u, w, j: int, mat: Materials, dt: float, mesh: ngs.Mesh):
-    """The j-th diagonal block of the velocity part of `step_matrix`, for scalar u, w (the velocity
-    u e_j, tested with w e_j): ε(u e_j):ε(w e_j) = ½(∇u·∇w + ∂_j u ∂_j w), div(u e_j) = ∂_j u, so
-    ∫ρ u w + νΔt ∫_F (∇u·∇w + ∂_j u ∂_j w) + Δt² ∫_S μ(∇u·∇w + ∂_j u ∂_j w) + λ ∂_j u ∂_j w."""
-    gu, gw = ngs.grad(u), ngs.grad(w)
-    strain = gu * gw + gu[j] * gw[j]
-    return (density(mat, mesh) * u * w * ngs.dx
-            + mat.nu * dt * strain * ngs.dx(FLUID)
-            + dt**2 * (mat.mu * strain + mat.lam * gu[j] * gw[j]) * ngs.dx(SOLID))
-
-
-def pressure_laplacian(p, q):
-    """∫_F ∇p·∇q: with ρ_F/Δt², the inverse of the pressure Schur complement where the mass dominates
-    (Cahouet–Chabard)."""
-    return ngs.grad(p) * ngs.grad(q) * ngs.dx(FLUID)
-
-
-def pressure_mass(p, q):
-    """∫_F p q: with 2ν/Δt, the inverse of the pressure Schur complement where the viscosity dominates."""
-    return p * q * ngs.dx(FLUID)
+def pressure_mass(p, q, spaces: Spaces, weight=1.0):
+    """∫_F ``weight`` p q: with weight 1/(2ν) and 1/Δt, the inverse of the pressure Schur complement where the
+    viscosity dominates (Cahouet–Chabard)."""
+    return integral(weight * p * q, spaces, FLUID)

@@ -1,5 +1,6 @@
 """The data's part of a step's right-hand side (5.1): the loads ∫_Ω f·w, the tractions, Γ's load and the
-Dirichlet values of the velocity with their lifts, each a `TimeVector` built once per run."""
+Dirichlet values of the velocity (flow-rate inflows among them, `inflow`) with their lifts, each a `TimeVector` (or
+like one) built once per run."""
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -8,21 +9,67 @@ import ngsolve as ngs
 import numpy as np
 from ngsolve import InnerProduct, ds, dx
 
-from ..geometry import FLUID, INTERFACE, SOLID, extent, interface_normal
+from ..geometry import FLUID, INTERFACE, SOLID, adjacent_regions, extent, interface_normal, pattern
 from ..model.data import Data
 from ..model.fields import TimeVector
+from ..model.materials import FLUID_FIELDS, Materials
 from . import forms
+from .inflow import FlowInflow
 from .spaces import Spaces
+
+
+def fluid_next_to(spaces: Spaces, materials: Materials, boundary: str) -> Materials:
+    """The materials of the fluid next to ``boundary``; a ValueError if it touches no fluid, or fluids that differ."""
+    fluids = {tuple(getattr(materials.of(r), k) for k in FLUID_FIELDS): r
+              for r in adjacent_regions(spaces.mesh, boundary) if r in spaces.phases.fluid}
+    if len(fluids) != 1:
+        raise ValueError(f"boundary.{boundary}: a flow-rate inflow must border one fluid, found "
+                         f"{', '.join(sorted(fluids.values())) or 'none'}")
+    return materials.of(next(iter(fluids.values())))
+
+
+def region_facets(spaces: Spaces) -> dict[str, ngs.GridFunction]:
+    """Per cell region r, the indicator χ_r (order-0 facet space) of the facets r shares with another cell region
+    (Γ, and the facets between two regions of one medium). Under MPI the cells next to each facet are counted over
+    the ranks."""
+    mesh, phases = spaces.mesh, spaces.phases
+    space = ngs.FacetFESpace(mesh, order=0)
+    counts = {region: ngs.GridFunction(space) for region in phases.regions}
+    total = ngs.GridFunction(space)
+    values = {region: gf.vec.FV().NumPy() for region, gf in counts.items()}
+    for array in (*values.values(), total.vec.FV().NumPy()):
+        array[:] = 0.0
+    for el in mesh.Elements(ngs.VOL):
+        dofs = list(space.GetDofNrs(el))
+        values[el.mat][dofs] += 1.0
+        total.vec.FV().NumPy()[dofs] += 1.0
+    for gf in (*counts.values(), total):
+        if mesh.comm.size > 1:
+            gf.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+            gf.vec.Cumulate()
+    everywhere = total.vec.FV().NumPy()
+    for gf in counts.values():
+        mine = gf.vec.FV().NumPy()
+        mine[:] = (mine > 0) & (everywhere - mine > 0)
+    return counts
 
 
 class Loads:
     """Σ w_j f(t_j) and the Dirichlet values g(t) with their lifts A g(t) under the step matrix A
-    (``matrix``); ``dirichlet`` are the g(t) (each dof owned by the first boundary naming it)."""
+    (``matrix``); ``dirichlet`` are the g(t) (each dof owned by the first boundary naming it; a flow-rate inflow's
+    (`inflows`, each a `FlowInflow`, its profile with the ``materials`` of the fluid next to it) by no other)."""
 
-    def __init__(self, spaces: Spaces, data: Data, matrix: ngs.BaseMatrix):
+    def __init__(self, spaces: Spaces, data: Data, matrix: ngs.BaseMatrix, materials: Materials = Materials()):
         self.spaces, self.data, self._matrix = spaces, data, matrix
         self._loads = self._load_vectors()
         self.dirichlet, self._lifts = self._dirichlet_vectors()
+        self.inflows = {}
+        for name, rate in data.boundary_flow.items():
+            fluid = fluid_next_to(spaces, materials, name)
+            self.inflows[name] = FlowInflow(spaces, name, rate, matrix, fluid.rho_fluid, fluid.nu)
+        for inflow in self.inflows.values():
+            self.dirichlet.append(inflow.values)
+            self._lifts.append(inflow.lift)
 
     def add_to(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, loads: list[tuple[float, float]],
                time: float, lift: bool = True) -> None:
@@ -49,20 +96,33 @@ class Loads:
         return image
 
     def _load_vectors(self) -> list[TimeVector]:
-        """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, each a `TimeVector`."""
+        """∫_F f_F·w + ∫_S f_S·w + Σ ∫_{Γ_N} t·w + ∫_Γ (J n)·w, the region-wise Σ_r ∫_{Ω_r} f_r·w +
+        Σ_r ∫_{∂Ω_r ∩ internal} J_r n_r·w, each a `TimeVector`."""
         d, mesh = self.data, self.spaces.mesh
         order = forms.DATA_BONUS
         dot = lambda cf, w: InnerProduct(cf, w)
         loads = []
+        phases = self.spaces.phases
+        fluid_order = order + self.spaces.bonus_intorder
         if d.force_fluid is not None:
-            fluid = dx(FLUID, bonus_intorder=order + self.spaces.bonus_intorder)
+            fluid = dx(phases.pattern(FLUID), bonus_intorder=fluid_order)
             loads.append(TimeVector(d.force_fluid, self._linear_form(dot, fluid)))
         if d.force_solid is not None:
-            loads.append(TimeVector(d.force_solid, self._linear_form(dot, dx(SOLID, bonus_intorder=order))))
+            solid = dx(phases.pattern(SOLID), bonus_intorder=order)
+            loads.append(TimeVector(d.force_solid, self._linear_form(dot, solid)))
+        bonus = {region: fluid_order if region in phases.fluid else order for region in phases.regions}
+        for region, force in d.region_forces.items():
+            loads.append(TimeVector(force, self._linear_form(dot, dx(pattern([region]), bonus_intorder=bonus[region]))))
+        facets = region_facets(self.spaces) if d.region_tractions else {}
+        for region, tensor in d.region_tractions.items():
+            n, chi = ngs.specialcf.normal(mesh.dim), facets[region]
+            measure = dx(pattern([region]), element_boundary=True, bonus_intorder=bonus[region])
+            loads.append(TimeVector(tensor, self._linear_form(lambda J, w, n=n, chi=chi: chi * InnerProduct(J * n, w),
+                                                              measure)))
         for name, traction in d.boundary_traction.items():
             loads.append(TimeVector(traction, self._linear_form(dot, ds(name, bonus_intorder=order))))
         if d.interface_load is not None and not d.interface_load.is_zero(tuple(zip(*extent(mesh)))):
-            n = interface_normal(mesh)
+            n = interface_normal(mesh, phases)
             loads.append(TimeVector(d.interface_load,
                                     self._linear_form(lambda J, w: InnerProduct(J * n, w),
                                                       ds(INTERFACE, bonus_intorder=order))))

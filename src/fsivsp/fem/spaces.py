@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 
-from ..geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, locked_fluid_cells
+from ..geometry import FLUID, FLUID_WALL, SOLID, SOLID_WALL, Phases, locked_fluid_cells
 from ..runtime.threads import sequential
 
 FAMILIES = ("mini", "taylor_hood")
@@ -30,6 +30,7 @@ class Spaces:
     mixed: ngs.FESpace
     bubble_order: int = 0
     dirichlet: str = ""  #: the boundaries where the velocity is prescribed ("a|b")
+    phases: Phases = Phases()  #: the cell regions of Ω_F and Ω_S
 
     @property
     def velocity_order(self) -> int:
@@ -61,7 +62,8 @@ def global_count(space: ngs.FESpace, dofs: ngs.BitArray) -> int:
     return round(space.mesh.comm.Sum((dofs & shared.MasterDofs()).NumSet()))
 
 
-def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> tuple[ngs.FESpace, int]:
+def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str,
+                   phases: Phases = Phases()) -> tuple[ngs.FESpace, int]:
     """V_h and the order of its cell bubbles (0 if none).
 
     MINI (72): continuous P1 plus the bubble of degree d+1 on fluid cells only, so that
@@ -71,8 +73,8 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
     so that the pressure at such a corner is controlled (a local MINI-type enrichment).
     """
     base = base_order(family, order)
-    cells = ([el.nr for el in mesh.Elements(ngs.VOL) if el.mat == FLUID] if family == "mini"
-             else locked_fluid_cells(mesh, dirichlet))
+    cells = ([el.nr for el in mesh.Elements(ngs.VOL) if el.mat in phases.fluid] if family == "mini"
+             else locked_fluid_cells(mesh, dirichlet, phases))
     space = ngs.VectorH1(mesh, order=base, dirichlet=dirichlet)
     bubble = mesh.dim + 1
     if base >= bubble or not mesh.comm.Sum(len(cells)):  # on any rank (Update is collective under MPI)
@@ -85,16 +87,17 @@ def velocity_space(mesh: ngs.Mesh, family: str, order: int, dirichlet: str) -> t
 
 @sequential()   # the same element colouring in every process (threaded assembly adds in its order)
 def build_spaces(mesh: ngs.Mesh, family: str = "mini", order: int = 1,
-                 dirichlet: str = f"{FLUID_WALL}|{SOLID_WALL}") -> Spaces:
+                 dirichlet: str = f"{FLUID_WALL}|{SOLID_WALL}", phases: Phases = Phases()) -> Spaces:
     """V_h, Q_h, S_h of the MINI element (5.2.1) or the generalized Taylor–Hood
     element of order k (5.2.2): Q_h continuous P_k on Ω_F, S_h discontinuous P_k
-    symmetric tensors on Ω_S (k = 1 and piecewise constants for MINI)."""
+    symmetric tensors on Ω_S (k = 1 and piecewise constants for MINI); Ω_F and Ω_S the cell regions of
+    ``phases``."""
     if family not in FAMILIES:
         raise ValueError(f"family: expected one of {', '.join(FAMILIES)}, got {family!r}")
     if family == "mini":
         order = 1
-    velocity, bubble = velocity_space(mesh, family, order, dirichlet)
-    pressure = ngs.H1(mesh, order=order, definedon=FLUID)
+    velocity, bubble = velocity_space(mesh, family, order, dirichlet, phases)
+    pressure = ngs.H1(mesh, order=order, definedon=phases.pattern(FLUID))
     stress_order = 0 if family == "mini" else order
-    stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=SOLID), symmetric=True)
-    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bubble, dirichlet)
+    stress = ngs.MatrixValued(ngs.L2(mesh, order=stress_order, definedon=phases.pattern(SOLID)), symmetric=True)
+    return Spaces(family, order, velocity, pressure, stress, velocity * pressure, bubble, dirichlet, phases)

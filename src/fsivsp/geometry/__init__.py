@@ -21,7 +21,8 @@ curved boundaries; docs/meshes.md describes the file formats):
   ``load_mesh`` and ``without_geometry``);
 - ``build_geometry(kind, dim, maxh, **parameters)``: dispatch by name, with validation (``KINDS``).
 
-The modules: `regions` (the names, their checks and counts, the interface normal), `refine`
+The modules: `regions` (the names, the media of the cell regions (`Phases`), their checks and counts, the
+interface normal), `refine`
 (geometry-free meshes, red refinement), `params` (checks of the ``[geometry]`` values), `shapes`
 (the built-in shapes), `mesh_files` (gmsh and netgen files), `cad_files` (STEP, BREP, IGES) and
 `registry` (``KINDS``, ``build_geometry``), `curved` (curved cells: onto the geometry, a mesh file's
@@ -42,14 +43,18 @@ from .regions import (
     SOLID_ENDS,
     SOLID_WALL,
     GeometryError,
+    Phases,
+    adjacent_regions,
     check_distributable,
     check_regions,
     extent,
     interface_normal,
     locked_fluid_cells,
+    mesh_phases,
+    pattern,
     region_counts,
 )
-from .registry import KINDS, build_geometry
+from .registry import KINDS, build_geometry, geometry_phases
 from .shapes import (
     CHANNEL_HEIGHT,
     CHANNEL_WIDTH,
@@ -65,7 +70,7 @@ from .shapes import (
 
 __all__ = [
     "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS",
-    "GeometryError",
+    "GeometryError", "Phases", "adjacent_regions", "mesh_phases", "pattern", "geometry_phases",
     "check_regions", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
     "netgen_mesh", "without_geometry", "refined",
     "CHANNEL_WIDTH", "CHANNEL_HEIGHT", "DISK_CENTRE", "DISK_RADIUS", "DEFAULT_MAXH",

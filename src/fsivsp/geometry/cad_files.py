@@ -14,7 +14,7 @@ import ngsolve as ngs
 from netgen.occ import Glue, OCCGeometry
 
 from .params import CAD_SUFFIXES, dimension, existing_file, fail, one_line, path_parameter, positive
-from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions
+from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions, mesh_phases
 from .shapes import occ_mesh
 
 
@@ -97,20 +97,28 @@ def _boundary_parts(ngmesh: nm.Mesh) -> list[tuple[int, str, int, int]]:
     return [(ed.edgenr, ed.name, ed.domin, ed.domout) for ed in ngmesh.EdgeDescriptors()]
 
 
-def _name_boundaries(ngmesh: nm.Mesh, path: Path) -> None:
+def kept_names(regions: Any) -> dict[str, str]:
+    """The parts ``regions`` maps by a name of their own (neither fluid nor solid): their cell regions keep it, so
+    that ``[materials.NAME]`` finds them (`cad`); {name: medium}."""
+    if not isinstance(regions, dict):
+        return {}
+    return {str(k): v for k, v in regions.items() if not str(k).isdigit() and str(k) not in (FLUID, SOLID)}
+
+
+def _name_boundaries(ngmesh: nm.Mesh, path: Path, media: dict[str, str]) -> None:
     """``interface`` on the faces (2D: edges) between fluid and solid; ``fluid_wall`` /
     ``solid_wall`` on the outer ones the CAD file leaves unnamed (netgen calls them ``default``).
-    A boundary the file names ``interface`` elsewhere is refused."""
-    materials = ngmesh.GetRegionNames(codim=0)
+    A boundary the file names ``interface`` elsewhere is refused. ``media``: the medium of each cell region."""
+    materials = [media.get(name, name) for name in ngmesh.GetRegionNames(codim=0)]
     for number, name, domin, domout in _boundary_parts(ngmesh):
-        media = {materials[d - 1] for d in (domin, domout) if d > 0}
-        if media == {FLUID, SOLID}:
+        media_here = {materials[d - 1] for d in (domin, domout) if d > 0}
+        if media_here == {FLUID, SOLID}:
             ngmesh.SetBCName(number - 1, INTERFACE)
         elif name == INTERFACE:
             raise GeometryError(f"CAD file {path}: a boundary named '{INTERFACE}' is not shared by the fluid and "
-                                f"the solid (it borders {' and '.join(sorted(media))} only)")
+                                f"the solid (it borders {' and '.join(sorted(media_here))} only)")
         elif name == "default" and 0 in (domin, domout):
-            ngmesh.SetBCName(number - 1, FLUID_WALL if media == {FLUID} else SOLID_WALL)
+            ngmesh.SetBCName(number - 1, FLUID_WALL if media_here == {FLUID} else SOLID_WALL)
 
 
 def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = None, regions: Any = None) -> ngs.Mesh:
@@ -120,23 +128,25 @@ def cad(dim: int = 3, maxh: float | None = None, *, path: str | Path | None = No
     projected refinement).
 
     Each solid (2D: face) is ``fluid`` or ``solid`` by `regions` (keys: numbers from 1 in file
-    order, or names; values ``fluid`` / ``solid``) or else by its own name. The faces (2D: edges)
+    order, or names; values ``fluid`` / ``solid``) or else by its own name; its cell region is called by its
+    medium, but a part mapped by a name of its own keeps that name (`kept_names`). The faces (2D: edges)
     shared by the fluid and the solid become ``interface`` (whatever the file calls them); other
     outer ones keep the file's name, else become ``fluid_wall`` / ``solid_wall``; those between two
     parts of the same medium are inner boundaries (named ``default``, traction-free)."""
     dim = dimension("cad", dim)
     h = None if maxh is None else positive("maxh", maxh)
     path, parts = _read_cad(path_parameter(path, CAD_SUFFIXES), dim)
+    kept = kept_names(regions)
     for part, medium in zip(parts, _solid_regions(path, parts, regions, "solid" if dim == 3 else "face")):
-        part.name = medium  # netgen's region name of a solid (3D) or a face (2D)
+        part.name = part.name if part.name in kept else medium  # netgen's region name of a solid (3D) or face (2D)
     shape = Glue(parts)
     if h is None:
         low, high = shape.bounding_box
         h = max(high[i] - low[i] for i in range(3)) / 10
     mesh = occ_mesh(shape, dim, h)
-    _name_boundaries(mesh.ngmesh, path)
+    _name_boundaries(mesh.ngmesh, path, kept)
     if INTERFACE not in mesh.GetBoundaries():
         raise GeometryError(f"CAD file {path}: no {'face' if dim == 3 else 'edge'} is shared by the fluid and the "
                             f"solid, so there is no '{INTERFACE}' (do they touch?)")
-    check_regions(mesh)
+    check_regions(mesh, mesh_phases(mesh, kept))
     return mesh

@@ -12,7 +12,7 @@ import numpy as np
 from . import curved as quadratic
 from .params import MESH_SUFFIXES, existing_file, one_line
 from .refine import netgen_mesh
-from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions
+from .regions import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, GeometryError, check_regions, mesh_phases
 
 #: meshio cell type → (dimension, corner count); the nodes after the corners are mid-edge nodes.
 GMSH_CELLS = {"line": (1, 2), "line3": (1, 2), "triangle": (2, 3), "triangle6": (2, 3),
@@ -100,7 +100,8 @@ def _outward(points: np.ndarray, facet: list[int], opposite: int) -> list[int]:
 def _gmsh_boundaries(path: Path, points: np.ndarray, cells: list[list[int]], materials: list[str],
                      regions: list[int], facets: list[tuple[str, list[int]]]):
     """Boundary parts (name, domin, domout) and the facets oriented out of domin, for `netgen_mesh`;
-    refuses a facet bordering no cell and an interface facet not between a fluid and a solid cell."""
+    refuses a facet bordering no cell and an interface facet not between a fluid and a solid cell (``materials``:
+    the medium of each region)."""
     neighbours = _facet_neighbours(cells)
     parts: dict[tuple[str, int, int], int] = {}
     oriented = []
@@ -115,14 +116,16 @@ def _gmsh_boundaries(path: Path, points: np.ndarray, cells: list[list[int]], mat
         domains = [regions[c] for c, _ in sides] + [0]
         number = parts.setdefault((name, domains[0], domains[1]), len(parts) + 1)
         oriented.append((number, _outward(points, facet, sides[0][1])))
-    _unnamed_facets(path, neighbours, {tuple(sorted(facet)) for _, facet in facets}, regions)
+    media = [materials[region - 1] for region in regions]
+    _unnamed_facets(path, neighbours, {tuple(sorted(facet)) for _, facet in facets}, media)
     return list(parts), oriented
 
 
-def _unnamed_facets(path: Path, neighbours: dict, named: set, regions: list[int]) -> None:
-    """Refuse outer facets and fluid–solid facets that are in no physical group."""
+def _unnamed_facets(path: Path, neighbours: dict, named: set, media: list[str]) -> None:
+    """Refuse outer facets and fluid–solid facets that are in no physical group (``media``: each cell's medium;
+    facets between regions of one medium need no name)."""
     unnamed = [sides for key, sides in neighbours.items()
-               if key not in named and (len(sides) == 1 or regions[sides[0][0]] != regions[sides[1][0]])]
+               if key not in named and (len(sides) == 1 or media[sides[0][0]] != media[sides[1][0]])]
     inner = sum(len(sides) == 2 for sides in unnamed)
     if inner:
         raise GeometryError(f"mesh file {path}: {inner} facets between fluid and solid cells are not in the "
@@ -132,16 +135,19 @@ def _unnamed_facets(path: Path, neighbours: dict, named: set, regions: list[int]
                             f"(e.g. '{FLUID_WALL}' or '{SOLID_WALL}')")
 
 
-def _load_gmsh(path: Path) -> ngs.Mesh:
-    """A gmsh mesh read by meshio, as a geometry-free netgen mesh (see `load_mesh`)."""
+def _load_gmsh(path: Path, regions: dict) -> ngs.Mesh:
+    """A gmsh mesh read by meshio, as a geometry-free netgen mesh (see `load_mesh`; ``regions``: the media of cell
+    regions not called fluid or solid)."""
     msh = _read_gmsh(path)
     dim, blocks, middles = _gmsh_blocks(msh, path)
     cells = [(name, c) for d, data, names in blocks if d == dim for name, c in zip(names, data)]
     facets = [(name, c) for d, data, names in blocks if d < dim for name, c in zip(names, data)]
     materials = list(dict.fromkeys(name for name, _ in cells))
-    strange = [name for name in materials if name not in (FLUID, SOLID)]
+    media = [regions.get(name, name) for name in materials]
+    strange = [name for name, medium in zip(materials, media) if medium not in (FLUID, SOLID)]
     if strange:
-        raise GeometryError(f"mesh file {path}: volume region '{strange[0]}' is neither '{FLUID}' nor '{SOLID}'")
+        raise GeometryError(f"mesh file {path}: volume region '{strange[0]}' is neither '{FLUID}' nor '{SOLID}' "
+                            f"(map it with [geometry] regions, e.g. regions = {{ {strange[0]} = \"{SOLID}\" }})")
     used = np.unique(np.concatenate([c for _, c in cells]))
     number = np.full(len(msh.points), -1)
     number[used] = np.arange(len(used))  # the corners; mid-edge nodes are not vertices
@@ -152,7 +158,7 @@ def _load_gmsh(path: Path) -> ngs.Mesh:
     _coincident_vertices(points, path)
     corners = [number[c].tolist() for _, c in cells]
     regions = [materials.index(name) + 1 for name, _ in cells]
-    boundaries, oriented = _gmsh_boundaries(path, points, corners, materials, regions,
+    boundaries, oriented = _gmsh_boundaries(path, points, corners, media, regions,
                                             [(name, number[c].tolist()) for name, c in facets])
     mesh = netgen_mesh(dim, points, materials, list(zip(regions, corners)), boundaries, oriented)
     if middles:
@@ -178,15 +184,16 @@ def _mid_edge_nodes(path: Path, mesh: ngs.Mesh, points: np.ndarray, nodes: np.nd
     quadratic.attach(mesh, {(int(a), int(b)): where[k] for (a, b), k in zip(unique, first)}, str(path))
 
 
-def load_mesh(path: str | Path) -> ngs.Mesh:
+def load_mesh(path: str | Path, regions: dict | None = None) -> ngs.Mesh:
     """A mesh from a file: gmsh ``.msh`` (format 2.2, 4.0 or 4.1, ASCII or binary, read by meshio;
     the physical names become the region names) or netgen ``.vol`` / ``.vol.gz``.
 
     The mesh must have the volume regions ``fluid`` and ``solid`` and the boundary region
-    ``interface`` (`check_regions`); anything else is a one-line `GeometryError` naming the file.
+    ``interface`` (`check_regions`), or other cell regions that ``regions`` (``[geometry] regions``) maps to
+    ``fluid`` or ``solid`` (`mesh_phases`); anything else is a one-line `GeometryError` naming the file.
     A gmsh mesh is 2D (triangles; boundary lines) or 3D (tetrahedra; boundary triangles), every
-    cell in the physical group ``fluid`` or ``solid``, every outer facet in a named group (walls:
-    ``fluid_wall``, ``solid_wall`` or other names), every fluid–solid facet in ``interface``, and the
+    cell in a physical group (``fluid``, ``solid`` or a name ``regions`` maps), every outer facet in a named group
+    (walls: ``fluid_wall``, ``solid_wall`` or other names), every fluid–solid facet in ``interface``, and the
     fluid and solid share their interface nodes (no coincident vertices). Second-order cells
     (triangle6, tetra10) are the straight mesh on their corners with their quadratic map attached
     (`quadratic`: `quadratic.curve` applies it, refinement keeps it); mid-edge nodes that all sit at
@@ -194,15 +201,18 @@ def load_mesh(path: str | Path) -> ngs.Mesh:
     edges at their midpoints); a ``.vol`` file saved from a mesh of an OCC geometry
     (``mesh.ngmesh.Save``) carries that geometry along."""
     path, suffix = existing_file(path, MESH_SUFFIXES, "mesh file")
+    regions = dict(regions or {})
     if suffix == ".msh":
-        mesh = _load_gmsh(path)
+        mesh = _load_gmsh(path, regions)
     else:
         try:
             mesh = ngs.Mesh(str(path))
         except Exception as error:  # noqa: BLE001 - netgen raises bare Exceptions
             raise GeometryError(f"mesh file {path}: cannot read ({one_line(error)})") from None
     try:
-        check_regions(mesh)
+        check_regions(mesh, mesh_phases(mesh, regions))
     except GeometryError as error:
+        if str(error).startswith("geometry."):
+            raise
         raise GeometryError(f"mesh file {path}: {str(error).removeprefix('mesh: ')}") from None
     return mesh

@@ -1,5 +1,9 @@
-"""The region names the scheme expects, their checks and counts, the interface normal, locked cells."""
+"""The region names the scheme expects, the media of a mesh's cell regions (`Phases`), their checks and counts, the
+interface normal, locked cells."""
 from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
@@ -25,14 +29,90 @@ class GeometryError(ValueError):
     """A mesh without the regions the formulation needs."""
 
 
-def check_regions(mesh: ngs.Mesh) -> None:
-    """Refuse a mesh that lacks a fluid, a solid or an interface."""
+#: The characters of NGSolve's region patterns (ECMAScript regular expressions, matched whole) that a name escapes.
+_SPECIAL = set("\\^$.|?*+()[]{}")
+
+
+def pattern(names) -> str:
+    """The region pattern matching exactly the region ``names``: NGSolve reads ``dx(name)``, ``definedon`` and
+    ``MaterialCF`` keys as regular expressions matched whole ("solid" does not match "solid2")."""
+    return "|".join("".join("\\" + c if c in _SPECIAL else c for c in name) for name in names)
+
+
+@dataclass(frozen=True)
+class Phases:
+    """The media of the cell regions: Ω_F is the union of the ``fluid`` regions, Ω_S of the ``solid`` ones (names
+    as in the mesh; a mesh of the built-in shapes has one of each, called `FLUID` and `SOLID`)."""
+
+    fluid: tuple[str, ...] = (FLUID,)
+    solid: tuple[str, ...] = (SOLID,)
+
+    def names(self, phase: str) -> tuple[str, ...]:
+        """The regions of ``phase`` (`FLUID` or `SOLID`)."""
+        return self.fluid if phase == FLUID else self.solid
+
+    def pattern(self, phase: str) -> str:
+        """The region pattern of Ω_F (``phase`` `FLUID`) or Ω_S (`SOLID`), for ``dx``, ``definedon`` and
+        ``mesh.Materials``."""
+        return pattern(self.names(phase))
+
+    def phase(self, region: str) -> str:
+        """`FLUID` or `SOLID`: the medium of a cell region."""
+        return FLUID if region in self.fluid else SOLID
+
+    @property
+    def regions(self) -> tuple[str, ...]:
+        return self.fluid + self.solid
+
+
+def mesh_phases(mesh: ngs.Mesh, regions: Mapping[str, str] | None = None) -> Phases:
+    """The `Phases` of a mesh's cell regions: ``regions`` maps names to `FLUID` or `SOLID` (``[geometry] regions``);
+    regions it does not name are called `FLUID` or `SOLID`. Refuses (one-line `GeometryError`) a key that names no
+    cell region, a value that is no medium, a region without a medium, and a mesh without fluid or solid."""
+    names = list(dict.fromkeys(mesh.GetMaterials()))
+    regions = dict(regions or {})
+    for key, value in regions.items():
+        if key not in names:
+            raise GeometryError(f"geometry.regions.{key}: no cell region of that name in the mesh (its regions: "
+                                f"{', '.join(names)})")
+        if value not in (FLUID, SOLID):
+            raise GeometryError(f"geometry.regions.{key}: expected '{FLUID}' or '{SOLID}', got {value!r}")
+    media = {name: regions.get(name, name) for name in names}
+    for name, medium in media.items():
+        if medium not in (FLUID, SOLID):
+            raise GeometryError(f"mesh: volume region '{name}' is neither '{FLUID}' nor '{SOLID}' (map it with "
+                                f"[geometry] regions, e.g. regions = {{ {name} = \"{SOLID}\" }})")
+    phases = Phases(*(tuple(n for n in names if media[n] == medium) for medium in (FLUID, SOLID)))
+    for medium in (FLUID, SOLID):
+        if not phases.names(medium):
+            raise GeometryError(f"mesh: no volume region named '{medium}' or mapped to it by [geometry] regions "
+                                f"(found {sorted(names)})")
+    return phases
+
+
+def check_regions(mesh: ngs.Mesh, phases: Phases | None = None) -> Phases:
+    """Refuse a mesh that lacks a fluid, a solid or an interface; its `Phases` (``phases``, or by the names of
+    `mesh_phases`)."""
+    phases = mesh_phases(mesh) if phases is None else phases
     materials, boundaries = set(mesh.GetMaterials()), set(mesh.GetBoundaries())
-    for name in (FLUID, SOLID):
+    for name in phases.regions:
         if name not in materials:
             raise GeometryError(f"mesh: no volume region named '{name}' (found {sorted(materials)})")
     if INTERFACE not in boundaries:
         raise GeometryError(f"mesh: no boundary region named '{INTERFACE}' (found {sorted(boundaries)})")
+    return phases
+
+
+def adjacent_regions(mesh: ngs.Mesh, boundary: str) -> set[str]:
+    """The cell regions next to the facets of ``boundary`` (over every rank of a distributed mesh)."""
+    from ..runtime import parallel
+
+    found = set()
+    for el in mesh.Elements(ngs.BND):
+        if el.mat == boundary:
+            facet = el.edges[0] if mesh.dim == 2 else el.faces[0]
+            found.update(mesh[cell].mat for cell in mesh[facet].elements)
+    return set().union(*parallel.gather(found)) if mesh.comm.size > 1 else found
 
 
 def check_distributable(mesh: ngs.Mesh) -> None:
@@ -43,25 +123,25 @@ def check_distributable(mesh: ngs.Mesh) -> None:
                             "(run serially, or write the file with first-order cells)")
 
 
-def region_counts(mesh: ngs.Mesh) -> dict[str, int]:
+def region_counts(mesh: ngs.Mesh, phases: Phases = Phases()) -> dict[str, int]:
     """Vertices, cells and boundary vertices per region (for reports and the paper's dof count)."""
-    def vertices(elements, name):
-        return {v.nr for el in elements if el.mat == name for v in el.vertices}
+    def vertices(elements, names):
+        return {v.nr for el in elements if el.mat in names for v in el.vertices}
 
     cells = list(mesh.Elements(ngs.VOL))
     boundary = list(mesh.Elements(ngs.BND))
-    outer = vertices(boundary, FLUID_WALL) | vertices(boundary, SOLID_WALL)
+    outer = vertices(boundary, (FLUID_WALL,)) | vertices(boundary, (SOLID_WALL,))
     return {
         "vertices": mesh.nv,
         "cells": mesh.ne,
-        "fluid_cells": sum(1 for el in cells if el.mat == FLUID),
-        "fluid_vertices": len(vertices(cells, FLUID)),
+        "fluid_cells": sum(1 for el in cells if el.mat in phases.fluid),
+        "fluid_vertices": len(vertices(cells, phases.fluid)),
         "boundary_vertices": len(outer),
-        "interface_vertices": len(vertices(boundary, INTERFACE)),
+        "interface_vertices": len(vertices(boundary, (INTERFACE,))),
     }
 
 
-def interface_normal(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+def interface_normal(mesh: ngs.Mesh, phases: Phases = Phases()) -> ngs.CoefficientFunction:
     """The unit normal on Γ pointing from Ω_F into Ω_S (the paper's n).
 
     NGSolve orients boundary normals per boundary element; the sign is fixed here once
@@ -80,7 +160,7 @@ def interface_normal(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
         if el.mat != INTERFACE:
             continue
         facet = el.edges[0] if mesh.dim == 2 else el.faces[0]
-        fluid = [c for c in mesh[facet].elements if mesh[c].mat == FLUID]
+        fluid = [c for c in mesh[facet].elements if mesh[c].mat in phases.fluid]
         interface.append(signs.GetDofNrs(el)[0])
         if len(fluid) > 1 or not fluid and mesh.comm.size == 1:
             bad = facet.nr
@@ -103,7 +183,7 @@ def interface_normal(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
     return sign * normal
 
 
-def locked_fluid_cells(mesh: ngs.Mesh, dirichlet: str) -> list[int]:
+def locked_fluid_cells(mesh: ngs.Mesh, dirichlet: str, phases: Phases = Phases()) -> list[int]:
     """Fluid cells with every vertex on a Dirichlet boundary (Γ_F or Γ_S).
 
     Typically a box corner meshed by a single tetrahedron: a continuous velocity without
@@ -115,4 +195,4 @@ def locked_fluid_cells(mesh: ngs.Mesh, dirichlet: str) -> list[int]:
     region = mesh.Boundaries(dirichlet).Mask()
     walled = {v.nr for el in mesh.Elements(ngs.BND) if region[el.index] for v in el.vertices}
     return [el.nr for el in mesh.Elements(ngs.VOL)
-            if el.mat == FLUID and all(v.nr in walled for v in el.vertices)]
+            if el.mat in phases.fluid and all(v.nr in walled for v in el.vertices)]

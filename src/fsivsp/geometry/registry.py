@@ -7,10 +7,10 @@ from typing import Any
 
 import ngsolve as ngs
 
-from .cad_files import cad
+from .cad_files import cad, kept_names
 from .mesh_files import load_mesh
 from .params import MESH_SUFFIXES, dimension, fail, path_parameter, positive
-from .regions import GeometryError
+from .regions import GeometryError, Phases, mesh_phases
 from .shapes import DEFAULT_MAXH, elastic_tube, fluid_in_solid, fluid_over_solid, paper_channel, solid_in_fluid
 
 KINDS: dict[str, dict[str, Any]] = {
@@ -45,9 +45,10 @@ KINDS: dict[str, dict[str, Any]] = {
     "mesh": {
         "dims": (2, 3),
         "maxh": {},
-        "parameters": {"path": None},
+        "parameters": {"path": None, "regions": None},
         "description": "a mesh file: gmsh .msh (format 2.2 or 4.x, ASCII or binary; physical names fluid, solid, "
-                       "interface, fluid_wall, solid_wall or other wall names) or netgen .vol",
+                       "interface, fluid_wall, solid_wall or other wall names; other cell regions mapped to fluid or "
+                       "solid by the regions table) or netgen .vol",
     },
     "cad": {
         "dims": (2, 3),
@@ -84,7 +85,10 @@ def build_geometry(kind: str, dim: int = 2, maxh: float | None = None, **paramet
         if maxh is not None:
             raise GeometryError(f"geometry.maxh: not used for kind 'mesh' (the file fixes the mesh), got {maxh!r}")
         path = path_parameter(parameters.get("path"), MESH_SUFFIXES)
-        mesh = load_mesh(path)
+        regions = parameters.get("regions")
+        if regions is not None and not isinstance(regions, dict):
+            raise fail("regions", "a table mapping cell region names to 'fluid' or 'solid'", regions)
+        mesh = load_mesh(path, regions)
         if mesh.dim != dim:
             raise GeometryError(f"geometry.dim: expected {dim}, but mesh file {path} is {mesh.dim}D")
         return mesh
@@ -95,3 +99,10 @@ def build_geometry(kind: str, dim: int = 2, maxh: float | None = None, **paramet
             raise fail("grading", "a number in (0, 1]", grading)
         return paper_channel(maxh=h, grading=grading)
     return _BUILDERS[kind](dim, maxh, **parameters)
+
+
+def geometry_phases(kind: str, mesh: ngs.Mesh, regions: dict | None = None) -> Phases:
+    """The `Phases` of a mesh that `build_geometry` made of ``kind`` with the ``regions`` table: a mesh file's cell
+    regions by the table (`mesh_phases`); a CAD file's parts were named by their media, but those the table maps by a
+    name of their own (`cad_files.kept_names`)."""
+    return mesh_phases(mesh, kept_names(regions) if kind == "cad" else regions)

@@ -52,10 +52,13 @@ def _mesh_hash(mesh) -> str:
 
 def fingerprint(scheme) -> dict:
     """What a checkpoint must share with the run that loads it: the spaces (family, order,
-    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt, the time scheme
-    and the materials."""
-    spaces = scheme.spaces
+    number of dofs), the mesh (size and a hash of its vertex coordinates), Δt, the time scheme,
+    the materials (by region where regions have their own) and the outlets, flow-rate inflows and supports."""
+    spaces, data = scheme.spaces, scheme.data
     mesh = spaces.mesh
+    boundaries = {**{name: {"outlet": model.record()} for name, model in data.outlets.items()},
+                  **{name: {"flow": rate.record()} for name, rate in data.boundary_flow.items()},
+                  **{name: {"support": [float(s.stiffness), float(s.damping)]} for name, s in data.supports.items()}}
     return {
         "format": FORMAT,
         "dim": mesh.dim,
@@ -70,17 +73,18 @@ def fingerprint(scheme) -> dict:
         "ndof_mixed": spaces.mixed.ndof,
         "dt": float(scheme.dt),
         "time_scheme": {"name": scheme.time_scheme.name, "theta": float(scheme.time_scheme.theta)},
-        "materials": {k: float(v) for k, v in scheme.materials.as_dict().items()},
+        "materials": scheme.materials.as_dict(),
+        **({"boundaries": boundaries} if boundaries else {}),
     }
 
 
 def _vectors(scheme) -> dict[str, np.ndarray]:
-    """The scheme's history vectors (this rank's part, cumulated under MPI) as views."""
+    """The scheme's history vectors (this rank's part, cumulated under MPI) and arrays, as views."""
     vectors = scheme.history()
     for vector in vectors.values():
         if hasattr(vector, "Cumulate") and parallel.distributed():
             vector.Cumulate()
-    return {name: vector.FV().NumPy() for name, vector in vectors.items()}
+    return {name: vector if isinstance(vector, np.ndarray) else vector.FV().NumPy() for name, vector in vectors.items()}
 
 
 def _key(name: str, rank: int, ranks: int) -> str:

@@ -90,5 +90,26 @@ def line_plot(probes: Probes, path: str | Path) -> None:
     _save(fig, path)
 
 
+def surface_plot(columns: list[str], rows: list[list[float]], path: str | Path) -> None:
+    """The flow, mean pressure and force of every boundary of surfaces.csv against time."""
+    plt = _pyplot()
+    table = np.array(rows, dtype=float).reshape(-1, len(columns) + 1)
+    panels = {"flow": "flow Q = ∫ v·n", "pressure": "mean pressure", "force": "force ∫ σn"}
+    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.4), constrained_layout=True)
+    for ax, (key, title) in zip(axes, panels.items()):
+        for k, column in enumerate(columns):
+            name, quantity = column.rsplit(".", 1)
+            if quantity.split("_")[0] == key and not np.all(np.isnan(table[:, k + 1])):
+                ax.plot(table[:, 0], table[:, k + 1], label=column if key == "force" else name)
+        ax.set_title(title)
+        ax.set_xlabel("time t")
+        ax.grid(True, alpha=0.3)
+        if ax.lines:
+            ax.legend(fontsize=7)
+    fig.suptitle("surface quantities (surfaces.csv); n the outer normal of the fluid (of the solid on a solid "
+                 "boundary)", fontsize=9)
+    _save(fig, path)
+
+
 #: A run's JSON summary: `atomic.write_json` (atomic, with the umask's modes).
 write_summary = atomic.write_json

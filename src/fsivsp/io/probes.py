@@ -8,7 +8,7 @@ import ngsolve as ngs
 import numpy as np
 
 from ..errors import CaseError
-from ..geometry import FLUID, extent
+from ..geometry import Phases, extent
 from ..runtime import parallel
 from . import atomic
 
@@ -21,11 +21,13 @@ def bounding_box(mesh: ngs.Mesh) -> str:
     return " × ".join(f"[{tidy(a):g}, {tidy(b):g}]" for a, b in zip(low, high))
 
 
-def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray) -> np.ndarray:
+def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray, fluid: tuple[str, ...]) -> np.ndarray:
     """``coords`` with every point that the mesh search puts in a solid cell but that lies on a fluid cell's
-    boundary (a point on Γ) moved by 1e-9 of the mesh's size into that fluid cell, where the pressure lives."""
+    boundary (a point on Γ) moved by 1e-9 of the mesh's size into that fluid cell, where the pressure lives
+    (``fluid``: the fluid's cell regions)."""
     located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
-    solid = [i for i, nr in enumerate(located["nr"]) if nr >= 0 and mesh[ngs.ElementId(ngs.VOL, int(nr))].mat != FLUID]
+    solid = [i for i, nr in enumerate(located["nr"])
+             if nr >= 0 and mesh[ngs.ElementId(ngs.VOL, int(nr))].mat not in fluid]
     if not solid:
         return coords
     points = np.array([v.point for v in mesh.vertices], dtype=float)
@@ -36,7 +38,7 @@ def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray) -> np.ndarray:
         for d in directions:
             trial = coords[i] + step * d
             found = mesh(*trial)
-            if found.nr >= 0 and mesh[ngs.ElementId(ngs.VOL, found.nr)].mat == FLUID:
+            if found.nr >= 0 and mesh[ngs.ElementId(ngs.VOL, found.nr)].mat in fluid:
                 coords[i] = trial
                 break
     return coords
@@ -51,8 +53,8 @@ class Probes:
     from the fluid side.
     """
 
-    def __init__(self, mesh: ngs.Mesh, points=(), lines=()):
-        self.dim = mesh.dim
+    def __init__(self, mesh: ngs.Mesh, points=(), lines=(), phases: Phases = Phases()):
+        self.dim, self.fluid = mesh.dim, phases.fluid
         self.points = np.array([self._coords(p, f"probe {i}") for i, p in enumerate(points)],
                                dtype=float).reshape(-1, self.dim)
         self.lines = []
@@ -84,14 +86,13 @@ class Probes:
             raise ValueError(f"{label}: expected {self.dim} finite coordinates, got {point!r}")
         return coords
 
-    @staticmethod
-    def _locate(mesh: ngs.Mesh, coords: np.ndarray, label: str):
+    def _locate(self, mesh: ngs.Mesh, coords: np.ndarray, label: str):
         """The points this process evaluates (on a distributed mesh, MPI: those of its part that no lower rank
         has) with their mask among all points, and whether each is in a fluid cell. A point outside the mesh is a
         one-line `CaseError` with the mesh's bounding box; a point on Γ is evaluated in a fluid cell (`_fluid_side`)."""
         if not len(coords):
             return (None, np.zeros(0, dtype=bool)), np.zeros(0, dtype=bool)
-        coords = _fluid_side(mesh, coords)
+        coords = _fluid_side(mesh, coords, self.fluid)
         located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
         owner = parallel.owners(located["nr"] >= 0)
         outside = np.flatnonzero(owner < 0)
@@ -101,7 +102,7 @@ class Probes:
             raise CaseError(f"{label.format(i)} at ({where}) is outside the mesh; expected a point in its "
                             f"bounding box {bounding_box(mesh)}")
         mine = owner == parallel.rank()
-        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat == FLUID for nr in located["nr"][mine]])
+        fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat in self.fluid for nr in located["nr"][mine]])
         return (located[mine], mine), fluid
 
     def _evaluate(self, scheme, located, fluid) -> tuple[np.ndarray, np.ndarray]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import ngsolve as ngs
 
-from ..geometry import FLUID, SOLID
+from ..geometry import FLUID, SOLID, Phases
 from ..runtime.threads import sequential
 
 #: ``region`` values in the VTU files (point and cell data, for ParaView's Threshold)
@@ -34,7 +34,8 @@ class SolidStress:
         mesh, self.scheme, self.dim = scheme.spaces.mesh, scheme, scheme.spaces.mesh.dim
         order = scheme.spaces.stress.globalorder
         with sequential():
-            self.values = ngs.GridFunction(ngs.L2(mesh, order=order, definedon=mesh.Materials("solid"))
+            solid = mesh.Materials(scheme.spaces.phases.pattern(SOLID))
+            self.values = ngs.GridFunction(ngs.L2(mesh, order=order, definedon=solid)
                                            ** (self.dim ** 2))
 
     def __call__(self) -> None:
@@ -66,7 +67,7 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
     ``von_mises`` (see `von_mises`, 0 in the fluid), ``displacement`` (the solid displacement, d components,
     0 in the fluid: the scheme's integrated velocity there is no displacement) and ``region`` (0 fluid, 1 solid).
     """
-    mesh = scheme.spaces.mesh
+    mesh, phases = scheme.spaces.mesh, scheme.spaces.phases
     dim = mesh.dim
     stress = SolidStress(scheme)
     sigma = ngs.CF(stress.values, dims=(dim, dim))
@@ -74,13 +75,13 @@ def scheme_fields(scheme) -> tuple[dict[str, ngs.CoefficientFunction], SolidStre
         "velocity": scheme.velocity,
         "pressure": scheme.pressure,
         "stress": symmetric_tensor(sigma, dim),
-        "von_mises": von_mises(sigma, scheme.materials, dim),
-        "displacement": mesh.MaterialCF({SOLID: 1}, default=0) * scheme.displacement,
-        "region": region_cf(mesh),
+        "von_mises": von_mises(sigma, scheme.coefficients, dim),
+        "displacement": mesh.MaterialCF({phases.pattern(SOLID): 1}, default=0) * scheme.displacement,
+        "region": region_cf(mesh, phases),
     }
     return fields, stress
 
 
-def region_cf(mesh: ngs.Mesh) -> ngs.CoefficientFunction:
+def region_cf(mesh: ngs.Mesh, phases: Phases = Phases()) -> ngs.CoefficientFunction:
     """0 in the fluid, 1 in the solid (`REGIONS`)."""
-    return mesh.MaterialCF(dict(REGIONS), default=-1)
+    return mesh.MaterialCF({phases.pattern(medium): value for medium, value in REGIONS.items()}, default=-1)

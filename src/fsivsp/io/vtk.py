@@ -31,7 +31,8 @@ def _pvd(entries: list[tuple[float, str]]) -> str:
 
 
 class VTKSeries:
-    """``{name}_{step:06d}.vtu`` files and the ParaView collection ``{name}.pvd``.
+    """``{name}_{step:06d}.vtu`` files and the ParaView collection ``{name}.pvd``, of the cells or (``boundary``) of
+    the facets of one boundary (the boundary mesh).
 
     Each step is written by `ngsolve.VTKOutput` under a hidden temporary name in the same
     directory and renamed into place; the ``.pvd`` (all files written so far, with their
@@ -40,7 +41,8 @@ class VTKSeries:
     """
 
     def __init__(self, directory: str | Path, mesh: ngs.Mesh, fields: dict[str, ngs.CoefficientFunction],
-                 name: str = "fields", subdivision: int = 0, refresh=None, continuous: bool = False):
+                 name: str = "fields", subdivision: int = 0, refresh=None, continuous: bool = False,
+                 boundary: str | None = None):
         """``refresh``, if given, is called before every write (see `SolidStress`); ``continuous``: one point
         per mesh vertex instead of VTKOutput's copy per cell (see `postprocess`)."""
         if not fields:
@@ -48,6 +50,13 @@ class VTKSeries:
         self.directory, self.mesh, self.name = Path(directory), mesh, name
         self.fields, self.subdivision, self.refresh = dict(fields), subdivision, refresh
         self.continuous = continuous
+        self._drawn = None
+        if boundary is not None:  # this rank's facets of the boundary
+            self._drawn = ngs.BitArray(mesh.GetNE(ngs.BND))
+            self._drawn.Clear()
+            for el in mesh.Elements(ngs.BND):
+                if el.mat == boundary:
+                    self._drawn.Set(el.nr)
         self._entries: list[tuple[float, str]] = []
 
     @property
@@ -84,14 +93,23 @@ class VTKSeries:
         """VTKOutput into ``path`` (it appends ``.vtu``; moved back to ``path``), then `postprocess`."""
         written = path.with_name(path.name + ".vtu")
         try:
-            ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields),
-                          filename=str(path), subdivision=self.subdivision).Do()
+            self._output(path)
             if not written.is_file():
                 raise RuntimeError(f"VTKOutput did not write {written.name}")
             os.replace(written, path)
         finally:
             written.unlink(missing_ok=True)
         self._finish(path)
+
+    def _output(self, path: Path) -> None:
+        """NGSolve's VTKOutput of the fields under the name ``path`` (it appends .vtu), of the cells or the
+        boundary's facets."""
+        output = ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields),
+                               filename=str(path), subdivision=self.subdivision)
+        if self._drawn is None:
+            output.Do()
+        else:
+            output.Do(vb=ngs.BND, drawelems=self._drawn)
 
     def _finish(self, path: Path) -> None:
         """A file NGSolve's VTKOutput wrote, post-processed (`postprocess`) or at least read back whole; it does
@@ -117,8 +135,7 @@ class VTKSeries:
         every rank, naming the first failed piece."""
         base = self.directory / self.filename(step).removesuffix(".vtu")
         scratch = self.directory / f".{base.name}.part"
-        ngs.VTKOutput(self.mesh, coefs=list(self.fields.values()), names=list(self.fields), filename=str(scratch),
-                      subdivision=self.subdivision).Do()
+        self._output(scratch)
         failed = None
         if parallel.is_root():
             scratch.with_suffix(".pvd").unlink(missing_ok=True)

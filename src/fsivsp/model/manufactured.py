@@ -6,6 +6,10 @@ displacement u with ∂t u = v in Ω_S, the stresses are σ_F = −pI + 2νε(v)
 and the interface load g = (σ_F − σ_S) n = (σ_S − σ_F) n_S (n from Ω_F into Ω_S, n_S = −n the
 solid's outer normal), which the scheme adds to the right-hand side as ∫_Γ g·w: integrating
 ρ∂t v − div σ = f by parts in each region leaves exactly this term where σ_F n ≠ σ_S n.
+
+With materials that differ between cell regions (`Materials.regions`) each region r has its own σ_r and f_r, and
+the integration by parts leaves Σ_r ∫_{∂Ω_r ∩ internal} σ_r n_r·w (n_r out of r): the jump (σ_F − σ_S,r) n on Γ, and
+on a facet between two solid (or two fluid) regions the traction jump (σ_1 − σ_2) n_1 (`region_data`).
 """
 from __future__ import annotations
 
@@ -99,6 +103,18 @@ class ExactSolution:
     def interface_load(self, mat: Materials) -> sympy.Matrix:
         """σ_F − σ_S; the interface load is g = (σ_F − σ_S) n, n from Ω_F into Ω_S."""
         return (self.fluid_stress(mat) - self.solid_stress(mat)).applyfunc(sympy.expand)
+
+    def region_data(self, mat: Materials, media: dict[str, str]) -> tuple[dict[str, list], dict[str, sympy.Matrix]]:
+        """Per cell region r (``media``: r → "fluid" or "solid"), its body force f_r and stress σ_r with its own
+        materials ``mat.of(r)``: the loads ∫_{Ω_r} f_r·w and Σ_r ∫_{∂Ω_r ∩ internal} σ_r n_r·w of a manufactured
+        solution with region-wise materials (the module's docstring)."""
+        forces, stresses = {}, {}
+        for region, medium in media.items():
+            own = mat.of(region)
+            fluid = medium == "fluid"
+            forces[region] = self.fluid_force(own) if fluid else self.solid_force(own)
+            stresses[region] = (self.fluid_stress(own) if fluid else self.solid_stress(own)).applyfunc(sympy.expand)
+        return forces, stresses
 
     def at_time(self, time: float) -> ExactSolution:
         sub = lambda e: e.subs(T, time)

@@ -5,8 +5,8 @@ matrix [[A, Cᵀ], [C, 0]] (C = −ΔtB), as PETSc's Python PC built with PETSc'
   pressure Laplacian, F⁻¹ by BoomerAMG cycles); "corrected" for MINI's bubbles (and Taylor–Hood k = 1's edge
   dofs), whose part Y_hᵀ A_hh Y_h of the middle factor is replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (E their
   difference): without it the bubbles' stiffness, scaled by Δt² λ, dominates the middle factor;
-- Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + 2ν/Δt diag(M_p)⁻¹, F_ρ = C diag(ρM)⁻¹ Cᵀ: the mass's and the viscosity's
-  limits of S added.
+- Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + diag(M_p/(2ν))⁻¹/Δt, F_ρ = C diag(ρM)⁻¹ Cᵀ: the mass's and the viscosity's
+  limits of S added (ν region-wise where fluids differ).
 """
 from __future__ import annotations
 
@@ -75,7 +75,7 @@ def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> S
         laplacian, y = _laplacian(PETSc, c, part(mass, velocity))
         weight, middle = part(pmass, pressure), None
         weight.reciprocal()
-        weight.scale(2 * materials.nu / dt)
+        weight.scale(1 / dt)
     solver.keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
     context = SchurPreconditioner(PETSc, laplacian, middle, weight, solver.ksp.getOptionsPrefix() + "schur_laplacian_")
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
@@ -114,12 +114,12 @@ def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
 
 
 def _masses(solver, spaces: Spaces, materials: Materials):
-    """The diagonals of the velocity mass ρM and the pressure mass M_p as PETSc vectors (PETSc's order)."""
+    """The diagonals of the velocity mass ρM and the pressure mass M_p/(2ν) as PETSc vectors (PETSc's order)."""
     X = spaces.mixed
     (_, p), (_, q) = X.TnT()
     mass = forms.velocity_mass(spaces, materials)
     pmass = ngs.BilinearForm(X)
-    pmass += forms.pressure_mass(p, q)
+    pmass += forms.pressure_mass(p, q, spaces, 1 / (2 * materials.nu))
     diagonals = []
     for form in (mass, pmass):
         form.Assemble()

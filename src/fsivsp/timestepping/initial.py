@@ -71,7 +71,7 @@ def project_offset(spaces: Spaces, materials: Materials, stress0: Field, displac
     """σ*_h = Π (σ⁰ − C ε(u⁰_h)) = Π σ⁰ − C ε(u⁰_h) into ``offset`` (Π the L² projection (26) onto S_h, cell by
     cell; exact on C ε(u⁰_h) by (18)) and b* = ∫_S σ*_h:ε(w) into ``load``; returns ∫_S Aσ*_h:σ*_h."""
     mesh = spaces.mesh
-    solid = mesh.Materials(SOLID)
+    solid = mesh.Materials(spaces.phases.pattern(SOLID))
     offset.Set(stress0.coefficient(0.0) - forms.elastic_stress(displacement, materials, mesh.dim),
                definedon=solid, bonus_intorder=4)
     w, _ = spaces.mixed.TestFunction()

@@ -33,7 +33,7 @@ class Scheme(Protocol):
     def lagged_right_hand_side(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int, work,
                                product: ngs.BaseVector | None = None) -> None: ...
 
-    def add_lagged(self, out: ngs.BaseVector, velocity: ngs.BaseVector,
+    def add_lagged(self, out: ngs.BaseVector, velocity: ngs.BaseVector, n: int,
                    product: ngs.BaseVector | None = None) -> None: ...
 
     def accept(self, raw: ngs.BaseVector, n: int, current, observe) -> None: ...
@@ -104,5 +104,6 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
                                      scheme.guess() if j == 1 else solutions[(j - 1) % 2])
             finished.result()
             if j < steps:
-                scheme.add_lagged(rhs[(j + 1) % 2], solutions[j % 2], products[j % 2] if products else None)
+                scheme.add_lagged(rhs[(j + 1) % 2], solutions[j % 2], first + j + 1,
+                                  products[j % 2] if products else None)
     scheme.accept(solutions[steps % 2], first + steps, time_scheme, observe)

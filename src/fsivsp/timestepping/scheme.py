@@ -12,15 +12,22 @@ is zero unless σ⁰_h is the L² projection (26). The terms ∫_S σ:ε(w) of s
 b* = ∫_S σ*_h:ε(w) and K the solid stiffness on the velocity's pattern (`forms.solid_stiffness`). The
 scheme keeps no stress-space matrix: σⁿ_h is a CoefficientFunction, formed per cell where it is written
 or measured.
+
+The boundary conditions beyond velocity and traction keep one matrix per run: a tissue support is part of K and
+K_F (`forms.boundary_mass`), a flow-rate inflow part of the Dirichlet data (`fem.inflow`), and each lumped outlet a
+rank-one term γ c cᵀ of the step matrix, solved by the Woodbury formula around the run's solver
+(`solvers.woodbury`) with its lumped model in `outlets`.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
 
 import ngsolve as ngs
+import numpy as np
 from ngsolve import InnerProduct
 
 from ..fem import forms
+from ..fem.inflow import flux_vector
 from ..fem.loads import Loads
 from ..fem.spaces import Spaces
 from ..model.data import Data
@@ -28,8 +35,10 @@ from ..model.materials import Materials
 from ..runtime import threads
 from ..runtime.logs import stage
 from ..solvers import SolverError, SolverSpec, compact, step_solver
+from ..solvers.woodbury import WoodburySolver
 from .initial import initial_multiplier, initial_state, project_offset
 from .marching import march
+from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
 
 
@@ -54,7 +63,10 @@ class Scheme:
     ``carried``); ``stress`` is σⁿ_h = σ*_h + λ div uⁿ_h I + 2μ ε(uⁿ_h), a CoefficientFunction (σ*_h: see the
     module's docstring; a GridFunction on S_h only where σ⁰_h is a projection, else None). BDF2 also keeps
     the level before (``previous``: (vⁿ⁻¹, ·) and (uⁿ⁻¹, 0)); the θ-scheme and BDF2 keep the step's raw
-    solution (vⁿ, mⁿ) with the multiplier mⁿ (``solution``), from which pⁿ is formed."""
+    solution (vⁿ, mⁿ) with the multiplier mⁿ (``solution``), from which pⁿ is formed. ``materials`` are the
+    data's, ``coefficients`` what the forms multiply in (`forms.coefficients`); ``outlets`` the lumped outlets
+    (`outlets.Outlet`) with their flux vectors ``flux_vectors``, ``inflows`` the flow-rate inflows
+    (`fem.inflow.FlowInflow`) by boundary."""
 
     def __init__(self, spaces: Spaces, materials: Materials, data: Data, dt: float,
                  solver: SolverSpec | None = None, time_scheme: Theta | BDF2 = Theta()):
@@ -67,22 +79,34 @@ class Scheme:
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         X, dim = spaces.mixed, spaces.mesh.dim
+        self.coefficients = mat = forms.coefficients(materials, spaces)
+        supports = data.supports
+        self._outlet_state = np.zeros((len(data.outlets), len(STATE)))
+        self.outlets = [Outlet(name, model, state) for (name, model), state in zip(data.outlets.items(),
+                                                                                   self._outlet_state)]
 
         with stage("assembly"):
-            step = forms.step_matrix(spaces, materials, self.tau).Assemble()
+            step = forms.step_matrix(spaces, mat, self.tau, supports).Assemble()
             self._matrix = compact(step.mat)
             del step
+            self.flux_vectors = [flux_vector(spaces, outlet.name) for outlet in self.outlets]
         with stage("solver") as label:
-            self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver)
+            self.solver = step_solver(self._matrix, spaces, mat, self.tau, solver)
             label[0] = solver_stage(self.solver)
-        self._stiffness = compact(forms.solid_stiffness(spaces, materials).Assemble().mat)
+            if self.outlets:
+                self.solver = WoodburySolver(self.solver, self.flux_vectors,
+                                             [outlet.weight(time_scheme, dt) for outlet in self.outlets],
+                                             X.FreeDofs())
+        self._stiffness = compact(forms.solid_stiffness(spaces, mat, supports).Assemble().mat)
         self._lagged_coefficients = time_scheme.lagged(dt)
-        self._lagged = compact(forms.lagged_operator(spaces, materials, *self._lagged_coefficients).Assemble().mat)
-        self._viscous = compact(forms.fluid_viscous(spaces, materials).Assemble().mat) \
+        self._lagged = compact(forms.lagged_operator(spaces, mat, *self._lagged_coefficients, supports)
+                               .Assemble().mat)
+        self._viscous = compact(forms.fluid_viscous(spaces, mat, supports).Assemble().mat) \
             if self._lagged_coefficients[1] else None
         self._work = self._matrix.CreateColVector()
 
-        self.loads = Loads(spaces, data, self._matrix)
+        self.loads = Loads(spaces, data, self._matrix, materials)
+        self.inflows = self.loads.inflows
 
         self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ)
         self.carried = ngs.GridFunction(X)     # (uⁿ_h, 0)
@@ -92,7 +116,7 @@ class Scheme:
             if time_scheme.levels == 2 else None
         self.solution = ngs.GridFunction(X) if time_scheme.name != "backward_euler" else None
         self.stress_offset = ngs.GridFunction(spaces.stress) if data.stress0 is not None else None   # σ*_h
-        self.stress = forms.elastic_stress(self.displacement, materials, dim)
+        self.stress = forms.elastic_stress(self.displacement, mat, dim)
         if self.stress_offset is not None:
             self.stress = self.stress_offset + self.stress
         self.time, self.n = 0.0, 0
@@ -109,13 +133,15 @@ class Scheme:
         (= M_σ⁻¹C I_h u⁰ by (18), the paper's experiment) or the L² projection (26) of σ⁰, kept as
         σ*_h = σ⁰_h − C ε(u⁰_h); b* = ∫_S σ*_h:ε(w) and the elastic energy of σ*_h (`initial`)."""
         d, spaces = self.data, self.spaces
-        initial_state(spaces, self.materials, d, self.loads.dirichlet, self.state, self.carried)
+        initial_state(spaces, self.coefficients, d, self.loads.dirichlet, self.state, self.carried)
         self._offset_load = self.state.vec.CreateVector()
         self._offset_load[:] = 0.0
         self._offset_energy = 0.0
         if self.stress_offset is not None:
-            self._offset_energy = project_offset(spaces, self.materials, d.stress0, self.displacement,
+            self._offset_energy = project_offset(spaces, self.coefficients, d.stress0, self.displacement,
                                                  self.stress_offset, self._offset_load)
+        for outlet, flow in zip(self.outlets, self.outlet_flows()):
+            outlet.start(flow)
         if self.previous is not None:
             self.previous[0].data = self.state.vec
             self.previous[1].data = self.carried.vec
@@ -140,14 +166,22 @@ class Scheme:
         (`marching.march`)."""
         march(self, steps, observe)
 
-    def history(self) -> dict[str, ngs.BaseVector]:
-        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores)."""
+    def history(self) -> dict[str, ngs.BaseVector | np.ndarray]:
+        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores); the outlets'
+        states (P_cⁿ, P_cⁿ⁻¹, Qⁿ each, the same on every rank) as an array."""
         vectors = {"state": self.state.vec, "displacement": self.carried.vec}
         if self.previous is not None:
             vectors.update(previous_state=self.previous[0], previous_displacement=self.previous[1])
         if self.solution is not None:
             vectors["solution"] = self.solution.vec
+        if self.outlets:
+            vectors["outlets"] = self._outlet_state
         return vectors
+
+    def outlet_flows(self, x: ngs.BaseVector | None = None) -> list[float]:
+        """Q = cᵀx through each outlet (x: the state (vⁿ, pⁿ) by default)."""
+        x = self.state.vec if x is None else x
+        return [InnerProduct(c, x) for c in self.flux_vectors]
 
     # -- the step's pieces, which `step` and `marching` drive ------------------------------------------
     def guess(self) -> ngs.BaseVector:
@@ -178,14 +212,17 @@ class Scheme:
                                       + (beta * current.theta) * self.solution.components[1].vec)
             self.solution.vec.data = raw
         self.displacement.vec.data = self._explicit.components[0].vec + current.tau(self.dt) * self.velocity.vec
+        for outlet, flow in zip(self.outlets, self.outlet_flows()):
+            outlet.accept(n, flow)
         self.time, self.n = n * self.dt, n
         if observe is not None:
             observe(self)
 
     def right_hand_side(self, current, n: int, out: ngs.BaseVector, boundary: ngs.BaseVector,
                         lagged: ngs.BaseMatrix | None = None, lift: bool = True) -> None:
-        """Step n's right-hand side, R aⁿ − ω (b* + K eⁿ) + Σ w_j f(t_j) (`timeschemes`), minus the lift of
-        the Dirichlet values vⁿ|∂Ω (unless not ``lift``), which go into ``boundary``."""
+        """Step n's right-hand side, R aⁿ − ω (b* + K eⁿ) + Σ w_j f(t_j) (`timeschemes`) − Σ_i s_i c_i (the
+        outlets', `outlets.Outlet.load`), minus the lift of the Dirichlet values vⁿ|∂Ω (unless not ``lift``), which
+        go into ``boundary``."""
         dt, work = self.dt, self._work
         self._combine(current.velocity(dt), work)
         out.data = (self._lagged if lagged is None else lagged) * work
@@ -194,13 +231,16 @@ class Scheme:
         out.data -= weight * self._offset_load
         out.data -= weight * (self._stiffness * work)
         self.loads.add_to(out, boundary, current.loads(n, dt), n * dt, lift)
+        for outlet, c in zip(self.outlets, self.flux_vectors):
+            out.data -= outlet.load(current, n, dt) * c
 
     def lagged_right_hand_side(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int,
                                work: tuple[ngs.BaseVector, ngs.GridFunction],
                                product: ngs.BaseVector | None = None) -> None:
         """Into ``out`` step n's right-hand side but for its term in vⁿ⁻¹, while vⁿ⁻¹ is being solved for
         (the history holds level n − 2): with uⁿ⁻¹ = ũⁿ⁻¹ + τ vⁿ⁻¹ the term K eⁿ does not see vⁿ⁻¹
-        (e_u τ + e_v = 0), only R aⁿ does (`add_lagged` adds it). ``work``: a vector and a GridFunction on X_h;
+        (e_u τ + e_v = 0), only R aⁿ and the outlets' loads do (`add_lagged` adds them). ``work``: a vector and a
+        GridFunction on X_h;
         ``product``: R vⁿ⁻² if already formed. The Dirichlet values into ``boundary``."""
         scheme, dt = self.time_scheme, self.dt
         work, explicit = work
@@ -218,27 +258,34 @@ class Scheme:
             out.data += a[3] * (self._lagged * self.state.vec if product is None else product)
         self.loads.add_to(out, boundary, scheme.loads(n, dt), n * dt)
 
-    def add_lagged(self, out: ngs.BaseVector, velocity: ngs.BaseVector, product: ngs.BaseVector | None = None) -> None:
-        """out += a R vⁿ⁻¹ once ``velocity`` vⁿ⁻¹ is solved, a its coefficient in aⁿ (`timeschemes`): the term of
-        step n's right-hand side that `lagged_right_hand_side` leaves out; R vⁿ⁻¹ also into ``product`` if given
-        (for step n + 1's term in vⁿ⁻¹, BDF2)."""
+    def add_lagged(self, out: ngs.BaseVector, velocity: ngs.BaseVector, n: int,
+                   product: ngs.BaseVector | None = None) -> None:
+        """out += a R vⁿ⁻¹ − Σ_i s_i c_i once ``velocity`` vⁿ⁻¹ (step n − 1, not yet accepted) is solved, a its
+        coefficient in aⁿ (`timeschemes`), s_i the outlets' loads of step n from Qⁿ⁻¹ = c_iᵀvⁿ⁻¹: the terms of step
+        n's right-hand side that `lagged_right_hand_side` leaves out; R vⁿ⁻¹ also into ``product`` if given (for
+        step n + 1's term in vⁿ⁻¹, BDF2)."""
         newest = self.time_scheme.velocity(self.dt)[1]
         if product is None:
             out.data += newest * (self._lagged * velocity)
         else:
             product.data = self._lagged * velocity
             out.data += newest * product
+        for outlet, c, flow in zip(self.outlets, self.flux_vectors, self.outlet_flows(velocity)):
+            out.data -= outlet.load(self.time_scheme, n, self.dt, solved=flow) * c
 
     def _start_solve(self, current, n: int, out: ngs.BaseVector) -> None:
         """Step n of ``current``, whose τ' differs from the run's τ (BDF2's Crank–Nicolson start): its
         matrix A(τ') and operator R' are assembled for this step only and A(τ') x = b is solved by Richardson
         x ← x + ω D A(τ)⁻¹ D (b − A(τ') x) with the run's solver, D scaling the pressure by τ/τ' so that D A(τ') D
         has A(τ)'s constraint. Its eigenvalues against A(τ) lie in [r², 1], r = τ'/τ < 1 (the velocity block
-        on the discrete kernel, 1 elsewhere), so ω = 2/(1 + r²) contracts by (1 − r²)/(1 + r²) (0.28 for BDF2)."""
-        spaces, mat, dt = self.spaces, self.materials, self.dt
+        on the discrete kernel, 1 elsewhere), so ω = 2/(1 + r²) contracts by (1 − r²)/(1 + r²) (0.28 for BDF2).
+        The supports' and outlets' terms are positive semi-definite with ratios in [r², r] (γ'/γ of an outlet), so
+        the bound holds with them."""
+        spaces, mat, dt, supports = self.spaces, self.coefficients, self.dt, self.data.supports
         tau = current.tau(dt)
-        matrix = compact(forms.step_matrix(spaces, mat, tau).Assemble().mat)
-        lagged = compact(forms.lagged_operator(spaces, mat, *current.lagged(dt)).Assemble().mat)
+        matrix = compact(forms.step_matrix(spaces, mat, tau, supports).Assemble().mat)
+        lagged = compact(forms.lagged_operator(spaces, mat, *current.lagged(dt), supports).Assemble().mat)
+        weights = [outlet.weight(current, dt) for outlet in self.outlets]
         self.right_hand_side(current, n, self._rhs, self._boundary, lagged, lift=False)
         free = ngs.Projector(spaces.mixed.FreeDofs(), True)
         out.data = self._boundary + free * self.guess()
@@ -250,6 +297,8 @@ class Scheme:
         omega = 2 / (min(1.0, ratio) + max(1.0, ratio))
         for _ in range(START_MAX_ITERATIONS):
             residual.data = self._rhs - matrix * out
+            for c, gamma, flow in zip(self.flux_vectors, weights, self.outlet_flows(out)):
+                residual.data -= (gamma * flow) * c
             residual.data = free * residual
             residual.FV().NumPy()[pressure] *= scale
             self.solver.solve_step(residual, zero, correction, None)
@@ -274,7 +323,8 @@ class Scheme:
         """The scheme's stable norm of (vⁿ, σⁿ_h), non-increasing when f = 0 and the boundary is at rest: the
         energy ½∫ρ|vⁿ|² + ½∫_S Aσⁿ_h:σⁿ_h (θ-scheme; conserved up to the viscous dissipation at θ = 1/2) or
         BDF2's G-norm ½(E(Uⁿ) + E(2Uⁿ − Uⁿ⁻¹)), U = (v, σ), from n = 1 on: at n = 1 it exceeds E⁰ by
-        E(U¹ − U⁰) (the Crank–Nicolson start's level n − 1 is U⁰)."""
+        E(U¹ − U⁰) (the Crank–Nicolson start's level n − 1 is U⁰). A tissue support's springs are in it (through K);
+        a Windkessel's capacitor, which may give energy back, is not."""
         if self.previous is None or self.n == 0:
             return self._energy(self.state.vec, self.carried.vec)
         if self._extrapolated is None:
