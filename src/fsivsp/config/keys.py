@@ -36,6 +36,10 @@ KEYS: list[Key] = [
         '`fluid_over_solid`: fluid box on a solid box'),
     Key('geometry', ('radius', 'length', 'wall'), '0.5, 5, 0.1',
         '`elastic_tube`: fluid cylinder along x in a solid wall; boundaries `inflow`, `outflow`, `solid_ends`'),
+    Key('geometry', ('periodic',), '`""`',
+        '`fluid_over_solid`: `"x"` (3D also `"y"`, `"xy"`), `elastic_tube`: `"x"`: the sides across those axes are '
+        'the boundary `periodic`, identified (layers, a tube of infinite extent; NGSolve\'s `Periodic` spaces; '
+        'serial only) ([docs/frequency.md](frequency.md#periodic-boundaries))'),
     Key('geometry', ('path', 'regions'), 'required, none',
         "relative to the case file's folder; `mesh`: a gmsh `.msh` (2.2/4.x; second-order cells curve the mesh) or "
         'netgen `.vol` file; `cad`: a STEP, BREP or IGES file, `regions` (cad only) maps its parts to '

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CaseError, is_number, is_whole
-from ..geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
+from ..geometry import FLUID_WALL, INTERFACE, PERIODIC, SOLID_WALL, refined
 from ..model.expressions import ExpressionError, parse_vector
 from ..model.fields import Field
 from .case import Case, build_mesh, read_case
@@ -115,6 +115,8 @@ def check_boundaries(boundaries: dict, mesh) -> None:
     for name in boundaries:
         if name == INTERFACE:
             raise CaseError("boundary.interface: the interface is not a boundary (its conditions are built in)")
+        if name == PERIODIC:
+            raise CaseError("boundary.periodic: the sides of [geometry] periodic take no condition (they are glued)")
         if name not in present:
             names = ", ".join(sorted(present - {INTERFACE}))
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")

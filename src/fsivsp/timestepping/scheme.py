@@ -70,7 +70,7 @@ class Scheme:
 
         with stage("assembly"):
             step = forms.step_matrix(spaces, materials, self.tau).Assemble()
-            self._matrix = compact(step.mat)
+            self._matrix = compact(step.mat, symmetric=spaces.periodic)
             del step
         with stage("solver") as label:
             self.solver = step_solver(self._matrix, spaces, materials, self.tau, solver)
