@@ -3,8 +3,9 @@
     import fsivsp
     records = fsivsp.study(fsivsp.paper_case(dt=1e-2), range(0, 3))
     summary = fsivsp.run("examples/pressure_wave_2d.toml", out="wave2d")   # as `fsivsp run`
+    modes = fsivsp.modes("examples/modes_2d.toml", out="modes")            # as `fsivsp modes`
 """
-from .app.api import run
+from .app.api import harmonic, modes, run
 from .config.case import Case, CaseError, Discretisation
 from .experiments.paper import paper_case, reference_table
 from .experiments.study import manufactured_data, run_level, study, time_study
@@ -23,7 +24,8 @@ from .timestepping.schemes import time_scheme
 __version__ = "0.1.0"
 __all__ = [
     "Scheme", "Case", "CaseError", "Data", "Discretisation", "ExactSolution", "ExpressionError", "Field",
-    "ManufacturedError", "Materials", "SolverSpec", "Spaces", "build_spaces", "manufactured_data", "paper_case",
+    "ManufacturedError", "Materials", "SolverSpec", "Spaces", "build_spaces", "harmonic", "manufactured_data", "modes",
+    "paper_case",
     "paper_channel", "parse", "parse_vector", "reference_table", "refined", "run", "run_level", "study",
     "time_scheme", "time_study",
 ]

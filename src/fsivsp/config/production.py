@@ -53,7 +53,8 @@ def _whole(table: dict, key: str, where: str, default: int) -> int:
     return value
 
 
-def _vector(value, field_name: str, dim: int) -> list:
+def read_vector(value, field_name: str, dim: int) -> list:
+    """d expressions (`model.expressions.parse_vector`), a bad one a `CaseError`."""
     try:
         return parse_vector(value, field_name, dim)
     except ExpressionError as error:
@@ -80,6 +81,7 @@ def _flag(table: dict, key: str, default: bool) -> bool:
 
 
 def read_output(table: dict, dim: int) -> dict[str, Any]:
+    """``[output]``: every key checked, with its default where not given."""
     check_keys(table, OUTPUT_KEYS, "output")
     lines = []
     for i, line in enumerate(table.get("lines", [])):
@@ -97,6 +99,7 @@ def read_output(table: dict, dim: int) -> dict[str, Any]:
 
 
 def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
+    """``[boundary.NAME]``: each a velocity or a traction, {name: (kind, d expressions)}."""
     boundaries = {}
     for name, spec in table.items():
         where = f"boundary.{name}"
@@ -106,7 +109,7 @@ def read_boundaries(table: dict, dim: int) -> dict[str, tuple[str, list]]:
         if len(spec) != 1:
             raise CaseError(f"{where}: expected exactly one of velocity = [...] or traction = [...]")
         kind, value = next(iter(spec.items()))
-        boundaries[name] = (kind, _vector(value, f"{where}.{kind}", dim))
+        boundaries[name] = (kind, read_vector(value, f"{where}.{kind}", dim))
     return boundaries
 
 
@@ -122,6 +125,16 @@ def check_boundaries(boundaries: dict, mesh) -> None:
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
 
 
+def refined_mesh(geometry: dict, dim: int, project: bool):
+    """The mesh of a validated ``[geometry]`` table, refined ``refine`` times (projected onto the geometry if
+    ``project``)."""
+    refine = geometry.get("refine", 0)
+    if not is_whole(refine, 0, MAX_REFINE):
+        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
+    mesh = build_mesh(geometry, dim, skip=("refine",))
+    return refined(mesh, refine, project) if refine else mesh
+
+
 def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
     """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
     {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
@@ -131,25 +144,21 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     fields, dim = read_case(doc, path, young_allowed=True)
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
-    data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
+    data = {key: read_vector(value, f"data.{key}", dim) for key, value in data_table.items()}
     boundaries = read_boundaries(section(doc, "boundary", required=False), dim)
     output = read_output(section(doc, "output", required=False), dim)
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    refine = fields["geometry"].get("refine", 0)
-    if not is_whole(refine, 0, MAX_REFINE):
-        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
-    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
-    if refine:
-        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
+    mesh = refined_mesh(fields["geometry"], dim, fields["discretisation"].project_refinement)
     check_boundaries(boundaries, mesh)
     return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
                    checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
 
 
-def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
-    """Dirichlet and traction data per boundary; walls default to rest, other boundaries to σn = 0."""
+def boundary_conditions(case) -> tuple[dict[str, Field], dict[str, Field]]:
+    """Dirichlet and traction data per boundary of a case with ``mesh``, ``dim`` and ``boundaries`` (a `RunCase`,
+    a frequency domain case); walls default to rest, other boundaries to σn = 0."""
     present = set(case.mesh.GetBoundaries())
     velocity, traction = {}, {}
     for name in (FLUID_WALL, SOLID_WALL):

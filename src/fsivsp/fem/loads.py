@@ -17,9 +17,10 @@ from .spaces import Spaces
 
 class Loads:
     """Σ w_j f(t_j) and the Dirichlet values g(t) with their lifts A g(t) under the step matrix A
-    (``matrix``); ``dirichlet`` are the g(t) (each dof owned by the first boundary naming it)."""
+    (``matrix``; None: no lifts, `add_to` only with ``lift=False``); ``dirichlet`` are the g(t) (each dof owned by
+    the first boundary naming it)."""
 
-    def __init__(self, spaces: Spaces, data: Data, matrix: ngs.BaseMatrix):
+    def __init__(self, spaces: Spaces, data: Data, matrix: ngs.BaseMatrix | None):
         self.spaces, self.data, self._matrix = spaces, data, matrix
         self._loads = self._load_vectors()
         self.dirichlet, self._lifts = self._dirichlet_vectors()
@@ -87,7 +88,8 @@ class Loads:
             owned = owned | mine
             image = self._boundary_image(region, mine)
             vectors.append(TimeVector(values, image))
-            lifts.append(TimeVector(values, lambda cf, image=image: self._lift(image(cf))))
+            if self._matrix is not None:
+                lifts.append(TimeVector(values, lambda cf, image=image: self._lift(image(cf))))
         return vectors, lifts
 
     def _lift(self, boundary_values: Callable) -> Callable:
