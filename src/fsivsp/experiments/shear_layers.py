@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 import mpmath
+import numpy as np
 
 #: Digits of mpmath's arithmetic for the roots.
 DIGITS = 30
@@ -105,6 +106,21 @@ class ShearLayers:
             depth = y - self.solid_height
             return complex(a * mpmath.sinh(kf * depth)
                            + c * mpmath.sinh(ks * self.solid_height) * mpmath.cosh(kf * depth))
+
+    def driven_coefficient(self, s: complex, wall_velocity: complex = 1.0):
+        """`driven` as an NGSolve CoefficientFunction (v_x(y), 0) (complex; sinh and cosh by ``exp``), exact to
+        round-off where it is evaluated."""
+        import ngsolve as ngs
+
+        kf, ks = (complex(k) for k in self.wave_numbers(s))
+        with mpmath.workdps(DIGITS):
+            c = complex(wall_velocity * self.nu / self.entire(s))
+        a = math.sqrt(self.rho_solid * self.mu) * c * np.cosh(ks * self.solid_height) / (self.nu * kf)
+        sinh = lambda z: (ngs.exp(z) - ngs.exp(-z)) / 2   # noqa: E731
+        cosh = lambda z: (ngs.exp(z) + ngs.exp(-z)) / 2   # noqa: E731
+        depth = ngs.y - self.solid_height
+        fluid = a * sinh(kf * depth) + c * np.sinh(ks * self.solid_height) * cosh(kf * depth)
+        return ngs.CF((ngs.IfPos(depth, fluid, c * sinh(ks * ngs.y)), 0))
 
 
 def compressional(lam: float, mu: float, rho_solid: float, solid_height: float, n: int = 1) -> complex:

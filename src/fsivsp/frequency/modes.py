@@ -101,9 +101,9 @@ def kind(s: complex, scale: float) -> str:
 
 @dataclass
 class Modes:
-    """What `coupled_modes` found: the ``oscillating`` modes nearest the ``target`` (Im s > 0, nearest first), the
-    ``overdamped`` ones among the converged pairs, how many ``static`` ones, whether it was ``stopped`` (a stop
-    request), and SLEPc's figures (``solver``)."""
+    """What `coupled_modes` found: the ``oscillating`` modes nearest the ``target`` (Im s > 0, by increasing
+    frequency), the ``overdamped`` ones among the converged pairs (by increasing decay rate), how many ``static``
+    ones, whether it was ``stopped`` (a stop request), and SLEPc's figures (``solver``)."""
 
     target: complex
     oscillating: list[Mode]
@@ -232,8 +232,9 @@ def coupled_modes(spaces: Spaces, materials: Materials, count: int, near: float 
             s, residual, x = found[i]
             return Mode(s, kinds[i], residual, solver.local_state(x))
 
-        overdamped = sorted((i for i, k in enumerate(kinds) if k == OVERDAMPED), key=lambda i: abs(found[i][0] - sigma))
-        return Modes(sigma, [mode(i) for i in oscillating[:count]], [mode(i) for i in overdamped],
-                     kinds.count(STATIC), stopped, solver.statistics())
+        chosen = sorted(oscillating[:count], key=lambda i: found[i][0].imag)
+        overdamped = sorted((i for i, k in enumerate(kinds) if k == OVERDAMPED), key=lambda i: -found[i][0].real)
+        return Modes(sigma, [mode(i) for i in chosen], [mode(i) for i in overdamped], kinds.count(STATIC), stopped,
+                     solver.statistics())
     finally:
         solver.destroy()

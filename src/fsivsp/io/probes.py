@@ -21,15 +21,21 @@ def bounding_box(mesh: ngs.Mesh) -> str:
     return " × ".join(f"[{tidy(a):g}, {tidy(b):g}]" for a, b in zip(low, high))
 
 
+#: How far (times the mesh's size) a point on Γ is moved into a fluid cell (`_fluid_side`): NGSolve's point search
+#: counts a point within about 1e-8 of a cell as in it (a point 1e-9 above Γ was found in the solid cell below).
+FLUID_SIDE_STEP = 1e-6
+
+
 def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray) -> np.ndarray:
     """``coords`` with every point that the mesh search puts in a solid cell but that lies on a fluid cell's
-    boundary (a point on Γ) moved by 1e-9 of the mesh's size into that fluid cell, where the pressure lives."""
+    boundary (a point on Γ) moved by `FLUID_SIDE_STEP` of the mesh's size into that fluid cell, where the pressure
+    lives."""
     located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
     solid = [i for i, nr in enumerate(located["nr"]) if nr >= 0 and mesh[ngs.ElementId(ngs.VOL, int(nr))].mat != FLUID]
     if not solid:
         return coords
     points = np.array([v.point for v in mesh.vertices], dtype=float)
-    step = 1e-9 * max(float(np.ptp(points, axis=0).max()), 1.0)
+    step = FLUID_SIDE_STEP * max(float(np.ptp(points, axis=0).max()), 1.0)
     coords = coords.copy()
     directions = [np.array(c, float) - 1 for c in np.ndindex(*(3,) * coords.shape[1]) if any(np.array(c) != 1)]
     for i in solid:
