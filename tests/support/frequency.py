@@ -111,3 +111,10 @@ def complex_process(code: str, timeout: float = 300) -> dict:
                           env=dict(os.environ, PYTHONPATH=str(ROOT / "src"), FSIVSP_THREADS="1"))
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def fsivsp(*args: str) -> subprocess.CompletedProcess:
+    """``fsivsp ARGS`` in a fresh Python (``fsivsp modes`` loads PETSc with complex scalars) with this checkout's
+    sources, on one thread."""
+    return subprocess.run([sys.executable, "-m", "fsivsp", *map(str, args)], capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT / "src"), FSIVSP_THREADS="1"))

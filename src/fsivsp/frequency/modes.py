@@ -54,7 +54,7 @@ MAX_PAIRS = 8
 @dataclass
 class Mode:
     """An eigenpair: ``s``, its ``kind``, its backward error ``residual`` and ``state``, (v, p) on X_h's local
-    dofs (complex), scaled to max |v| = 1 with that value real."""
+    dofs (complex), scaled to max |v| = 1 over the vertices with that value real."""
 
     s: complex
     kind: str
@@ -171,7 +171,8 @@ class ModeSolver:
         return float(self._r.norm() / ((self.norms[0] + abs(s) * self.norms[1]) * x.norm()))
 
     def local_state(self, x) -> np.ndarray:
-        """x's (v, p) on X_h's local dofs, scaled to max |v| = 1 with that value real (collective under MPI)."""
+        """x's (v, p) on X_h's local dofs, scaled to max |v| = 1 over the vertices (the vertex dofs, first in each
+        component, are point values) with that value real (collective under MPI)."""
         PETSc, n = self.PETSc, self.pencil.numbering
         local = PETSc.Vec().createSeq(len(n.numbers), comm=PETSc.COMM_SELF)
         scatter = PETSc.Scatter().create(x, PETSc.IS().createGeneral(n.numbers.astype(PETSc.IntType),
@@ -180,11 +181,11 @@ class ModeSolver:
         values = local.getArray().copy()
         for obj in (scatter, local):
             obj.destroy()
-        nv = len(n.velocity)
+        nv, spaces = len(n.velocity), self.pencil.spaces
         velocity = values[:nv]
-        largest = velocity[np.argmax(np.abs(velocity))] if nv else 0.0
-        candidates = parallel.gather(complex(largest))
-        scale = max(candidates, key=abs)
+        nodal = n.velocity % (spaces.velocity.ndof // spaces.mesh.dim) < spaces.mesh.nv   # a vertex's value
+        largest = velocity[nodal][np.argmax(np.abs(velocity[nodal]))] if nodal.any() else 0.0
+        scale = max(parallel.gather(complex(largest)), key=abs)
         state = np.zeros(self.pencil.spaces.mixed.ndof, dtype=complex)
         state[n.velocity] = velocity / scale
         state[n.pressure] = values[2 * nv:] / scale
