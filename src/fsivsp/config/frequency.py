@@ -168,11 +168,12 @@ def _read(doc: dict, path: Path, command: str, overrides: dict | None) -> dict[s
 
 
 def _boundaries(table: dict, dim: int, command: str) -> tuple[dict[str, tuple[str, list]], dict[str, float]]:
-    """``[boundary.NAME]`` with each one's phase (``fsivsp harmonic``: its amplitudes checked for t)."""
+    """``[boundary.NAME]`` with each one's phase (``fsivsp harmonic``: its amplitudes checked for t; ``fsivsp modes``
+    reads no phase, its caller names them unused)."""
     plain, phases = {}, {}
     for name, spec in table.items():
         if isinstance(spec, dict):
-            check_keys(spec, BOUNDARY_KEYS | ({PHASE} if command == "harmonic" else set()), f"boundary.{name}")
+            check_keys(spec, BOUNDARY_KEYS | {PHASE}, f"boundary.{name}")
             if PHASE in spec:
                 phases[name] = read_phase(spec[PHASE], f"boundary.{name}.{PHASE}")
             spec = {key: value for key, value in spec.items() if key != PHASE}
@@ -219,9 +220,10 @@ def load_modes_case(source: str | Path | dict, overrides: dict | None = None) ->
     near = table.get("near")
     if near is not None and (not is_number(near) or near < 0):
         raise expected("modes.near", "a frequency >= 0", near)
-    boundaries, _ = _boundaries(section(doc, "boundary", required=False), fields["dim"], "modes")
+    boundaries, phases = _boundaries(section(doc, "boundary", required=False), fields["dim"], "modes")
     loaded = [f"boundary.{name}.{kind} (its values: the modes take velocity boundaries at rest, traction ones free)"
               for name, (kind, values) in boundaries.items() if any(value != 0 for value in values)]
+    loaded += [f"boundary.{name}.{PHASE}" for name in phases]
     warn_unused(doc, "modes", loaded)
     mesh = refined_mesh(fields["geometry"], fields["dim"], fields["discretisation"].project_refinement)
     check_boundaries(boundaries, mesh)

@@ -89,9 +89,12 @@ KEYS: list[Key] = [
     Key('exact', ('velocity', 'pressure', 'displacement'), 'required',
         '`study` only: the exact v, p, u (∂t u = v is checked)'),
     Key('data', ('force_fluid', 'force_solid', 'velocity0', 'displacement0'), 'zero',
-        '`run` only: body forces and initial data'),
+        'body forces and initial data (`harmonic`: the body forces\' amplitudes, of x, y, z)'),
     Key('boundary.NAME', ('velocity', 'traction'), 'rest on `fluid_wall`, `solid_wall`; else traction-free',
-        '`run` only: Dirichlet v, or σn'),
+        'Dirichlet v, or σn: `run` of x, y, z, t; `harmonic` of x, y, z (the amplitude); `modes` takes a velocity '
+        'boundary at rest, a traction boundary free'),
+    Key('boundary.NAME', ('phase',), '0',
+        '`harmonic` only: the lag φ in degrees of the datum g(x) cos(2πft − φ) ([docs/frequency.md](frequency.md))'),
     Key('output', ('every',), '10',
         '`run` only: VTK output every so many steps'),
     Key('output', ('probes', 'lines'), 'none',
@@ -102,13 +105,21 @@ KEYS: list[Key] = [
         'one VTU point per mesh vertex (fields averaged over the cells where they live) instead of a copy per cell'),
     Key('checkpoint', ('every',), '50',
         '`run` only: steps between checkpoints'),
+    Key('harmonic', ('frequencies',), 'required',
+        '`harmonic` only: the frequencies f (cycles per unit time, > 0), a list or `{ start, stop, count, spacing }` '
+        '(`spacing` `"linear"` or `"log"`, count numbers from start to stop); [data] force_fluid, force_solid and '
+        'the boundaries are then amplitudes of x ([docs/frequency.md](frequency.md))'),
+    Key('modes', ('count', 'near'), '6, the lowest',
+        '`modes` only (`--count`, `--near` override): how many oscillating modes, nearest which frequency F (the '
+        'target s = 2πiF; default: the lowest)'),
 ]
 
 
 #: The sections' titles on the page.
 SECTIONS = {"geometry": "[geometry]", "materials": "[materials]", "time": "[time]",
             "discretisation": "[discretisation]", "solver": "[solver.petsc]", "exact": "[exact]", "data": "[data]",
-            "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]"}
+            "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]",
+            "harmonic": "[harmonic]", "modes": "[modes]"}
 
 
 def names(section: str) -> set[str]:
