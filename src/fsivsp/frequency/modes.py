@@ -188,7 +188,7 @@ class ModeSolver:
         scale = max(parallel.gather(complex(largest)), key=abs)
         state = np.zeros(self.pencil.spaces.mixed.ndof, dtype=complex)
         state[n.velocity] = velocity / scale
-        state[n.pressure] = values[2 * nv:] / scale
+        state[n.pressure] = values[nv + int(n.solid.sum()):] / scale
         return state
 
     def destroy(self) -> None:

@@ -4,15 +4,15 @@ The unknowns are x = (v, u, p) on the free dofs, u = v/s the displacement: σ_S 
 scheme keeps it (`timestepping.scheme`). With M = ∫_Ω ρ v·w, K_F = 2ν ∫_F ε(v):ε(w), K_S = ∫_S Cε(v):ε(w) and
 Bᵀp = ∫_F p div w (`fem.forms`):
 
-    [ −K_F   −K_S   Bᵀ ] [v]       [ M  0    0 ] [v]
-    [  I_S    I_F   0  ] [u]  = s  [ 0  I_S  0 ] [u]
-    [  B      0     0  ] [p]       [ 0  0    0 ] [p]
+    [ −K_F   −K_S R̃ᵀ   Bᵀ ] [v]       [ M  0  0 ] [v]
+    [  R̃      0        0  ] [u]  = s  [ 0  I  0 ] [u]
+    [  B      0        0  ] [p]       [ 0  0  0 ] [p]
 
-Row 1 is the momentum equation s M v + K_F v + K_S u − Bᵀp = 0, row 3 div v = 0. u has the velocity's free dofs;
-I_S is the identity on those of solid cells (row 2 there: s u = v) and I_F on the others (u = 0 there, which K_S
-never sees): the fluid's u rows, like the pressure rows, have E = 0, infinite eigenvalues, which shift-and-invert
-maps to 0. Keeping σ ∈ S_h instead of u (the [v; σ] pencil) gives the same eigenvalues s ≠ 0 plus a static one
-for every stress outside Cε(V_h|_S); u is the smaller pencil (issue 35's prototype: 66 against 98 unknowns).
+Row 1 is the momentum equation s M v + K_F v + K_S u − Bᵀp = 0, row 2 s u = v on the solid, row 3 div v = 0. u
+has the free velocity dofs of solid cells (V_h|_S), R̃ restricts a velocity to them. E is singular in p: infinite
+eigenvalues, which shift-and-invert maps to 0. Keeping σ ∈ S_h instead of u (the [v; σ] pencil) gives the same
+eigenvalues s ≠ 0 plus a static one for every stress outside Cε(V_h|_S); u is the smaller pencil (issue 35's
+prototype: 66 against 98 unknowns).
 
 Static modes, s = 0: rigid motions of a solid free of walls (v = 0, p = 0) and a constant pressure in every fluid
 part closed by walls and Γ, balanced by the static displacement it causes (K_S u = Bᵀp, v = 0). So A − σE is
@@ -41,11 +41,12 @@ from ..solvers.petsc_layout import aij, from_summands
 
 @dataclass
 class Numbering:
-    """Where x = (v, u, p) lives: this rank's free velocity dofs ``velocity`` and pressure dofs ``pressure`` (of
-    X_h's local vector), the global numbers of its local x = (v, u, p) on them (``numbers``), whether this rank is
-    their master, its rows [start, stop) and the global size."""
+    """Where x = (v, u, p) lives: this rank's free velocity dofs ``velocity``, which of them are ``solid`` (u's),
+    its free pressure dofs ``pressure`` (of X_h's local vector), the global numbers of its local x = (v, u, p) on
+    them (``numbers``), whether this rank is their master, its rows [start, stop) and the global size."""
 
     velocity: np.ndarray
+    solid: np.ndarray
     pressure: np.ndarray
     numbers: np.ndarray
     master: np.ndarray
@@ -65,21 +66,20 @@ def numbering(spaces: Spaces) -> Numbering:
     X, nv = spaces.mixed, spaces.velocity.ndof
     free = free_mask(X.FreeDofs(), X.ndof)
     velocity, pressure = np.flatnonzero(free[:nv]), nv + np.flatnonzero(free[nv:])
-    dofs = np.concatenate([velocity, velocity, pressure])
+    solid = solid_dofs(spaces)[velocity]
+    dofs = np.concatenate([velocity, velocity[solid], pressure])
     shared = X.ParallelDofs()
     master = (np.ones(len(dofs), dtype=bool) if shared is None
               else np.fromiter(shared.MasterDofs(), dtype=bool, count=X.ndof)[dofs])
-    counts = np.array(parallel.gather((int(master[:len(velocity)].sum()), int(master[2 * len(velocity):].sum()))))
-    sizes = 2 * counts[:, 0] + counts[:, 1]
-    start = int(sizes[:parallel.rank()].sum())
+    size = int(parallel.total(np.array([master.sum()]))[0])
+    start = int(sum(parallel.gather(int(master.sum()))[:parallel.rank()]))
     numbers = np.full(len(dofs), -1, dtype=np.int64)
     numbers[master] = start + np.arange(int(master.sum()))   # v, u, p masters in this order
     if shared is not None:   # v, u and p each by a vector of their own
-        blocks = np.cumsum([0, len(velocity), len(velocity), len(pressure)])
+        blocks = np.cumsum([0, len(velocity), int(solid.sum()), len(pressure)])
         numbers = np.concatenate([cumulated(X, dofs[a:b], numbers[a:b], master[a:b])
                                   for a, b in zip(blocks[:-1], blocks[1:])])
-    return Numbering(velocity, pressure, numbers, master, (start, start + int(sizes[parallel.rank()])),
-                     int(sizes.sum()))
+    return Numbering(velocity, solid, pressure, numbers, master, (start, start + int(master.sum())), size)
 
 
 def cumulated(X: ngs.FESpace, dofs: np.ndarray, numbers: np.ndarray, master: np.ndarray) -> np.ndarray:
@@ -116,19 +116,17 @@ class Pencil:
     def __init__(self, PETSc, spaces: Spaces, materials: Materials):
         self.PETSc, self.spaces = PETSc, spaces
         self.numbering = n = numbering(spaces)
-        iv, ip = n.velocity, n.pressure
+        iv, ip, iu = n.velocity, n.pressure, n.velocity[n.solid]
         mass, viscous, stiffness, divergence = (
             local_matrix(form) for form in (forms.velocity_mass(spaces, materials),
                                             forms.fluid_viscous(spaces, materials),
                                             forms.solid_stiffness(spaces, materials), forms.divergence(spaces)))
-        solid = solid_dofs(spaces)[iv]
-        masters = n.master[:len(iv)].astype(float)
-        identity = lambda where: sp.diags(masters * where)   # noqa: E731 (entered once, by the master)
+        masters = n.master[len(iv):len(iv) + len(iu)].astype(float)   # the identities are entered by the master
+        restriction = sp.csr_matrix((masters, (np.arange(len(iu)), np.flatnonzero(n.solid))), shape=(len(iu), len(iv)))
         divergence = divergence[iv][:, ip]
-        self.A = self._matrix(sp.bmat([[-viscous[iv][:, iv], -stiffness[iv][:, iv], divergence],
-                                       [identity(solid), identity(~solid), None],
-                                       [divergence.T, None, None]], format="csr"))
-        self.E = self._matrix(sp.block_diag([mass[iv][:, iv], identity(solid), sp.csr_matrix((len(ip), len(ip)))],
+        self.A = self._matrix(sp.bmat([[-viscous[iv][:, iv], -stiffness[iv][:, iu], divergence],
+                                       [restriction, None, None], [divergence.T, None, None]], format="csr"))
+        self.E = self._matrix(sp.block_diag([mass[iv][:, iv], sp.diags(masters), sp.csr_matrix((len(ip), len(ip)))],
                                             format="csr"))
 
     def _matrix(self, summand: sp.csr_matrix):
