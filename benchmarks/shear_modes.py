@@ -21,7 +21,7 @@ use("complex")
 
 from fsivsp.experiments.shear_layers import ShearLayers, compressional  # noqa: E402
 from fsivsp.fem.spaces import build_spaces  # noqa: E402
-from fsivsp.frequency.modes import coupled_modes  # noqa: E402
+from fsivsp.frequency.modes import ModeSolver  # noqa: E402
 from fsivsp.geometry import build_geometry, refined  # noqa: E402
 from fsivsp.model.materials import Materials  # noqa: E402
 from fsivsp.runtime.threads import using  # noqa: E402
@@ -38,11 +38,14 @@ def targets() -> list[tuple[str, complex]]:
 
 
 def nearest(spaces, s: complex) -> tuple[complex, float, int]:
-    """The eigenvalue nearest ``s`` among the 6 pairs nearest it, its backward error, the pencil's size."""
-    near = s.imag / (2 * math.pi)
-    found = coupled_modes(spaces, MATERIALS, 6, near=near if near > 0 else None)
-    pairs = [(m.s, m.residual) for m in found.oscillating + found.overdamped]
-    return (*min(pairs, key=lambda pair: abs(pair[0] - s)), found.solver["unknowns"])
+    """The eigenvalue nearest ``s`` among the 6 pairs nearest it (shift-and-invert at ``s``), its backward error,
+    the pencil's size."""
+    solver = ModeSolver(spaces, MATERIALS, s)
+    try:
+        pairs = [(s_h, residual) for s_h, residual, _ in solver.solve(6)]
+        return (*min(pairs, key=lambda pair: abs(pair[0] - s)), solver.pencil.numbering.size)
+    finally:
+        solver.destroy()
 
 
 def main() -> None:

@@ -43,8 +43,10 @@ def write(tmp_path, text: str):
     ("[harmonic]\nfrequencies = [0.5, 1.0]", "", "harmonic: missing section [harmonic]"),
     ("[output]", "[exact]\nvelocity = []\n[output]", "a case for `fsivsp study` (it has an [exact] section)"),
     ("[boundary.fluid_wall]", "[boundary.nowhere]", "boundary.nowhere: no boundary of that name in the mesh"),
+    ('family = "mini"', 'family = "mini"\nsolver = "petsc"', "discretisation.solver: expected one of auto, direct, "
+     "pardiso, umfpack for `fsivsp harmonic` (a factorisation of a complex matrix), got 'petsc'"),
 ], ids=["t-in-boundary", "t-in-force", "phase", "negative", "twice", "empty", "range", "spacing", "count",
-        "misspelt", "no-section", "study-case", "boundary-name"])
+        "misspelt", "no-section", "study-case", "boundary-name", "iterative-solver"])
 def test_bad_harmonic_input_is_one_line_and_exit_2(tmp_path, capsys, old, new, message):
     assert old in HARMONIC
     case = write(tmp_path, HARMONIC.replace(old, new))

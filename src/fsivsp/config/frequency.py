@@ -48,12 +48,16 @@ DEFAULT_COUNT = 6
 PHASE = "phase"
 #: What each command reads of a run case's sections and keys; the others are named in a warning.
 USED = {
-    "harmonic": {"sections": {"geometry", "materials", "discretisation", "solver", "data", "boundary", "output",
-                              "harmonic"},
-                 "data": {"force_fluid", "force_solid"}, "output": {"probes", "vtk", "subdivision", "continuous"}},
+    "harmonic": {"sections": {"geometry", "materials", "discretisation", "data", "boundary", "output", "harmonic"},
+                 "data": {"force_fluid", "force_solid"}, "output": {"probes", "vtk", "subdivision", "continuous"},
+                 "discretisation": {"family", "order", "curved", "threads", "solver"}},
     "modes": {"sections": {"geometry", "materials", "discretisation", "solver", "boundary", "output", "modes"},
-              "data": set(), "output": {"vtk", "subdivision", "continuous"}},
+              "data": set(), "output": {"vtk", "subdivision", "continuous"},
+              "discretisation": {"family", "order", "curved", "threads"}},
 }
+#: ``fsivsp harmonic``'s ``[discretisation] solver``: a factorisation of complex matrices (the iterative solvers are
+#: real; SuperLU's wrapper and sparsecholesky are not for this complex symmetric indefinite matrix).
+HARMONIC_SOLVERS = ("auto", "direct", "pardiso", "umfpack")
 
 
 @dataclass(kw_only=True)
@@ -145,7 +149,7 @@ def warn_unused(doc: dict, command: str, more: list[str]) -> None:
     """One warning line naming the sections and keys of ``doc`` that ``command`` does not read, and ``more``."""
     used = USED[command]
     names = [name for name in doc if name not in used["sections"]]
-    for table in ("data", "output"):
+    for table in ("data", "output", "discretisation"):
         if table in used["sections"] and isinstance(doc.get(table), dict):
             names += [f"{table}.{key}" for key in doc[table] if key not in used[table]]
     if names + more:
@@ -160,6 +164,9 @@ def _read(doc: dict, path: Path, command: str, overrides: dict | None) -> dict[s
     materials = read_materials(section(doc, "materials"), dim, young_allowed=True)
     disc, spec = read_discretisation(section(doc, "discretisation", required=False),
                                      section(doc, "solver", required=False))
+    if command == "harmonic" and spec.method not in HARMONIC_SOLVERS:
+        raise expected("discretisation.solver", f"one of {', '.join(HARMONIC_SOLVERS)} for `fsivsp harmonic` (a "
+                       "factorisation of a complex matrix)", spec.method)
     output = section(doc, "output", required=False)
     check_keys(output, OUTPUT_KEYS, "output")
     output = read_output({key: value for key, value in output.items() if key in USED[command]["output"]}, dim)

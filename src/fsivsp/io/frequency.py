@@ -50,12 +50,14 @@ def write_harmonic_csv(path: str | Path, probes: Probes, frequencies: list[float
 
 
 def harmonic_plot(path: str | Path, probes: Probes, frequencies: list[float], samples: list[np.ndarray]) -> None:
-    """The response curves: amplitude (log scale) and phase lag of every probe's components against frequency."""
+    """The response curves: amplitude (log scale) and phase lag (unwrapped) of every probe's components against
+    frequency."""
     plt = _pyplot()
     names = [f"v{k + 1}" for k in range(probes.dim)] + ["p"]
     fig, axes = plt.subplots(2, len(names), figsize=(4 * len(names), 6), constrained_layout=True, squeeze=False)
     values = np.array(samples).reshape(len(frequencies), len(probes.points), len(names))
     amp, phase = amplitude_phase(values)
+    phase = np.degrees(np.unwrap(np.radians(phase), axis=0))   # continuous through ±180°
     for i, point in enumerate(probes.points):
         label = "p{} ({})".format(i, ", ".join(f"{c:g}" for c in point))
         for j in range(len(names)):
