@@ -134,3 +134,46 @@ def test_modes_of_a_harmonic_case(tmp_path):
                                    "rest, traction ones free), boundary.fluid_wall.phase")
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert [round(m["frequency"], 4) for m in summary["modes"]] == [1.4804]
+
+
+#: ``fsivsp modes`` in which SIGINT arrives before SLEPc's first stopping test (at the end of its first outer
+#: iteration), as a user's Ctrl-C during that iteration.
+INTERRUPTED = """
+import os, signal, sys
+import fsivsp.frequency.modes as modes
+from fsivsp.app.cli import main
+original = modes.coupled_modes
+def coupled_modes(*args, stop, **kwargs):
+    def interrupted():
+        os.kill(os.getpid(), signal.SIGINT)
+        return stop()
+    return original(*args, stop=interrupted, **kwargs)
+modes.coupled_modes = coupled_modes
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_ctrl_c_ends_the_eigensolver_with_what_converged(tmp_path):
+    """SIGINT during SLEPc's iteration: it stops at the end of the outer iteration (the stopping test), the modes
+    converged so far are written (fewer than the 20 asked for: with a basis of 50 vectors they need several
+    iterations), the summary says interrupted, one line, exit 130."""
+    import subprocess
+    import sys
+
+    from support.frequency import ROOT
+
+    script = tmp_path / "interrupted.py"
+    script.write_text(INTERRUPTED)
+    case = write(tmp_path, LID.split("[data]")[0].replace("maxh = 0.1", "maxh = 0.2")
+                 + "\n[solver.petsc]\neps_ncv = 50\n")   # a small basis: several outer iterations
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, str(script), "modes", str(case), "--out", str(out), "--count", "20",
+                           "--quiet"], capture_output=True, text=True,
+                          env=dict(os.environ, PYTHONPATH=str(ROOT / "src"), FSIVSP_THREADS="1"))
+    assert done.returncode == 130, done.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["eigensolver"]["iterations"] == 1
+    assert len(summary["modes"]) < 20
+    assert done.stderr.strip() == (f"interrupted after {len(summary['modes'])} of 20 modes: the results so far are "
+                                   f"in {out}")
+    assert (out / "modes.csv").is_file()

@@ -139,10 +139,12 @@ class ModeSolver:
 
     def solve(self, pairs: int, monitor: Callable[[int, int], None] | None = None,
               stop: Callable[[], bool] | None = None) -> list[tuple[complex, float, object]]:
-        """The converged pairs (s, backward error, x) of a solve for ``pairs`` eigenpairs; ``monitor(converged,
-        pairs)`` after every outer iteration, ``stop()`` true (on any rank) ends it early."""
+        """The converged pairs (s, backward error, x) of a solve for ``pairs`` eigenpairs (a basis of 2 ``pairs`` + 10
+        vectors, at least 30, or the options' ``eps_ncv``); ``monitor(converged, pairs)`` after every outer
+        iteration, ``stop()`` true (on any rank) ends it early."""
         eps, reason = self.eps, self.SLEPc.EPS.ConvergedReason
-        eps.setDimensions(nev=pairs, ncv=max(2 * pairs + 10, 30))
+        ncv = int(self.options["eps_ncv"]) if "eps_ncv" in self.options else max(2 * pairs + 10, 30)
+        eps.setDimensions(nev=pairs, ncv=max(ncv, pairs + 1))
         if monitor is not None:
             eps.cancelMonitor()
             eps.setMonitor(lambda _eps, its, nconv, *_: monitor(int(nconv), pairs))
