@@ -4,6 +4,7 @@ relation (D) and the compressional mode (`fsivsp.experiments.shear_layers`), MIN
 uniformly refined meshes.
 
     .venv/bin/python benchmarks/shear_modes.py --levels 0-3 --json benchmarks/shear_modes.json
+    .venv/bin/python benchmarks/shear_modes.py --table benchmarks/shear_modes.json   # the table of a saved run
 
 Each exact eigenvalue is matched with the nearest of the 6 eigenvalues nearest it (shift-and-invert at the root
 itself), as a coarse mesh may have another mode nearer the target than the one sought.
@@ -52,7 +53,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--levels", default="0-3")
     parser.add_argument("--json", default=None)
+    parser.add_argument("--table", default=None, metavar="JSON", help="print the table of a saved run and stop")
     args = parser.parse_args()
+    if args.table:
+        with open(args.table) as handle:
+            saved = json.load(handle)
+        print(table(saved["records"], [(name, complex(*s)) for name, s in saved["exact"]]))
+        return
     low, high = (int(x) for x in args.levels.split("-"))
     exact = targets()
     coarse = build_geometry("fluid_over_solid", 2, 0.125, width=0.25, periodic="x")
@@ -79,7 +86,10 @@ def main() -> None:
 def table(records: list[dict], exact) -> str:
     """Relative errors |s_h − s|/|s| (rate log₂ of the ratio to the level before) as Markdown."""
     names = [n for n, _ in exact]
-    lines = ["| element | level | unknowns | " + " | ".join(f"{n} = {s:.6g}" for n, s in exact) + " |",
+    def value(s: complex) -> str:
+        return f"{s.real:.6g}" + (f" {'+−'[s.imag < 0]} {abs(s.imag):.6g}i" if abs(s.imag) > 1e-12 * abs(s) else "")
+
+    lines = ["| element | level | unknowns | " + " | ".join(f"{n} = {value(s)}" for n, s in exact) + " |",
              "|---|---|---|" + "---|" * len(names)]
     for i, row in enumerate(records):
         before = records[i - 1] if i and records[i - 1]["family"] == row["family"] and \
