@@ -67,12 +67,13 @@ def summary_head(case: FrequencyCase, spaces, status: str) -> dict:
                      "pressure": global_count(spaces.pressure, spaces.pressure.FreeDofs())}}
 
 
-def finished(summary: dict, started: float, setup: float) -> dict:
-    """``summary`` with the seconds, the peak memory (every rank's) and the threads."""
+def finished(summary: dict, started: float, seconds: dict[str, float]) -> dict:
+    """``summary`` with the ``seconds`` of its stages and in total, the peak memory (every rank's) and the
+    threads."""
     from ..runtime.threads import current
 
     memory = parallel.gather(peak_memory())
-    return {**summary, "seconds": {"setup": setup, "total": clock.perf_counter() - started},
+    return {**summary, "seconds": {**seconds, "total": clock.perf_counter() - started},
             "peak_memory_bytes": max(memory), "ranks": {"size": len(memory), "peak_memory_bytes": memory},
             "threads": current()}
 
@@ -136,7 +137,7 @@ def run_harmonic(case: HarmonicCase, out: Path, quiet: bool = False) -> dict:
             write_harmonic_csv(out / "harmonic.csv", probes, done, samples)
             harmonic_plot(out / "harmonic.png", probes, done, samples)
         summary = finished({**summary_head(case, spaces, status), "frequencies": case.frequencies,
-                            "solves": solves}, started, setup)
+                            "solves": solves}, started, {"setup": setup})
         if parallel.is_root():
             write_summary(out / "summary.json", summary)
         return summary
@@ -174,7 +175,7 @@ def run_modes(case: ModesCase, out: Path, quiet: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     spaces, *_ = case_spaces(case, complex=False)
     fit(2 * spaces.free_dofs())
-    with Interrupt() as interrupt, tqdm(total=2 * case.count + 4, disable=quiet or not parallel.is_root(),
+    with Interrupt() as interrupt, tqdm(total=case.count + 4, disable=quiet or not parallel.is_root(),
                                          unit="pair", desc=case.name) as bar:
         def monitor(converged: int, pairs: int) -> None:
             bar.total = max(pairs, converged)   # SLEPc may converge more pairs than asked for
@@ -182,7 +183,7 @@ def run_modes(case: ModesCase, out: Path, quiet: bool = False) -> dict:
 
         found = coupled_modes(spaces, case.materials, case.count, case.near, dict(case.solver.petsc), monitor,
                               stop=lambda: bool(interrupt.requested))
-    setup = clock.perf_counter() - started
+    eigenpairs = clock.perf_counter() - started   # spaces, pencil, factorisation, iterations
     if parallel.is_root():
         write_modes_csv(out / "modes.csv", found.oscillating)
         write_modes_csv(out / "overdamped.csv", found.overdamped)
@@ -201,7 +202,8 @@ def run_modes(case: ModesCase, out: Path, quiet: bool = False) -> dict:
                         "target": [found.target.real, found.target.imag],
                         "modes": [{"index": i, **m.record()} for i, m in enumerate(found.oscillating, start=1)],
                         "overdamped": [{"index": i, **m.record()} for i, m in enumerate(found.overdamped, start=1)],
-                        "static": found.static, "eigensolver": found.solver}, started, setup)
+                        "static": found.static, "eigensolver": found.solver}, started,
+                       {"eigenpairs": eigenpairs})
     if parallel.is_root():
         write_summary(out / "summary.json", summary)
     if signum is not None:

@@ -157,7 +157,7 @@ def warn_unused(doc: dict, command: str, more: list[str]) -> None:
 
 
 def _read(doc: dict, path: Path, command: str, overrides: dict | None) -> dict[str, Any]:
-    """The `FrequencyCase` fields of ``doc`` for ``command`` and the ``[boundary]`` table."""
+    """The `FrequencyCase` fields of ``doc`` for ``command`` but its mesh and boundaries."""
     check_command(doc, path, command)
     check_keys(doc, (RUN_SECTIONS - {"exact"}) | {"harmonic", "modes"}, "")
     geometry, dim = read_geometry(section(doc, "geometry"), path.parent)
