@@ -22,6 +22,8 @@ demo: $(VENV)
 	$(BIN)/fsivsp paper --dt 1e-2 --levels 0-3 --json demo/paper.json
 	$(BIN)/fsivsp study examples/fluid_over_solid_2d.toml --levels 0-2 --json demo/study.json
 	$(BIN)/fsivsp run examples/pressure_wave_2d.toml --out demo/pressure_wave_2d
+	$(BIN)/fsivsp modes examples/modes_2d.toml --out demo/modes_2d
+	$(BIN)/fsivsp harmonic examples/harmonic_3d.toml --out demo/harmonic_3d
 
 # pytest-xdist on every core (tests/conftest.py keeps the MPI and thread tests on one worker, and each run's default
 # threads are the cores divided among the workers): 5 min 34 s against 6 min 4 s in one process here (BENCHMARKS.md).

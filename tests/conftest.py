@@ -113,13 +113,15 @@ def tiny_disk(tmp_path):
 #: the tests that keep both cores busy (mpirun with 2–3 ranks: test_mpi.py and test_run_options.py's; 2 NGSolve
 #: threads: test_threads.py; `paper --jobs 2`), two of which at once would oversubscribe a 2-core machine; and
 #: "wave2d", the README's pressure-wave run and its --resume, which continues in the run's folder (test_readme.py's
-#: `ran`). Groups of (test file, test name prefix). Not xdist_group marks: xdist 3.8 applies them by rewriting
+#: `ran`); "layers", the tests of test_modes.py's module fixture, computed once on one worker. Groups of (test file,
+#: test name prefix). Not xdist_group marks: xdist 3.8 applies them by rewriting
 #: `item._nodeid`, which pytest 9.2 no longer reads, so they group nothing.
 GROUPS = {"two_cores": [("test_mpi.py", ""), ("test_threads.py", ""),
                         ("test_run_options.py", "test_set_and_stages_on_two_ranks"),
                         ("test_faults.py", "test_ctrl_c_in_paper_all")],
           "wave2d": [("test_readme.py",
-                      "test_cheap_commands_run[fsivsp run examples/pressure_wave_2d.toml --out wave2d")]}
+                      "test_cheap_commands_run[fsivsp run examples/pressure_wave_2d.toml --out wave2d")],
+          "layers": [("test_modes.py", "test_shear_modes"), ("test_modes.py", "test_a_run_started")]}
 
 
 def group_of(nodeid: str) -> str | None:

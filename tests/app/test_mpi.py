@@ -361,3 +361,32 @@ def test_estimate_and_free_space_refusal_are_one_message(tmp_path, tiny_disk):
     assert len(ours) == 2 and ours[0].startswith("estimate: 1 799 unknowns (petsc)"), done.stderr
     assert ours[1].startswith(f"error: fsivsp run: --out {tiny_disk / 'out'}: 0.7 MB free"), done.stderr
     assert not list(tiny_disk.iterdir())
+
+
+@needs_mpi
+def test_modes_equal_serial(tmp_path):
+    """`fsivsp modes` on 2 ranks (SLEPc with complex scalars, MUMPS over the ranks): the same unknowns and the same
+    eigenvalues as serially to 1e-8 (measured 4e-13), their modes' VTU pieces as large; `fsivsp harmonic` (serial
+    only) refused in one line."""
+    from support.frequency import LID
+    from support.frequency import fsivsp as command
+
+    case = tmp_path / "box.toml"
+    case.write_text(LID.split("[data]")[0] + "\n[modes]\ncount = 4\nnear = 1.5\n\n[output]\nvtk = true\n")
+    serial = command("modes", case, "--out", tmp_path / "serial", "--quiet")
+    done = mpirun("modes", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
+    assert serial.returncode == 0 and done.returncode == 0, serial.stderr + done.stderr
+    expected, found = (json.loads((tmp_path / name / "summary.json").read_text()) for name in ("serial", "mpi"))
+    assert found["ranks"]["size"] == 2 and found["dofs"] == expected["dofs"]
+    assert found["eigensolver"]["unknowns"] == expected["eigensolver"]["unknowns"]
+    assert len(found["modes"]) == len(expected["modes"]) == 4
+    for a, b in zip(expected["modes"], found["modes"]):
+        assert abs(complex(*a["s"]) - complex(*b["s"])) < 1e-8 * abs(complex(*a["s"]))
+    whole = meshio.read(tmp_path / "serial" / "vtk" / "modes_000002.vtu")
+    piece = meshio.read(tmp_path / "mpi" / "vtk" / "modes_000002_proc1.vtu")
+    for name in ("velocity_real", "velocity_imag", "pressure_real", "stress_imag"):
+        assert abs(piece.point_data[name]).max() == pytest.approx(abs(whole.point_data[name]).max(), rel=1e-8), name
+    harmonic = mpirun("harmonic", str(case))
+    ours = [line for line in harmonic.stderr.splitlines() if line.startswith("error:")]
+    assert harmonic.returncode == 2 and ours == ["error: fsivsp harmonic: the harmonic response does not run under "
+                                                 "mpirun (docs/mpi.md); run without mpirun"], harmonic.stderr

@@ -46,6 +46,9 @@ COMMANDS = {
     "fsivsp paper --all --out paper-report": PARSE,
     "fsivsp paper --dt 1e-2 --initial-stress projection --project": PARSE,
     'fsivsp paper --levels 0-2 --solver petsc --petsc-options "-ksp_type gmres -ksp_gmres_restart 50"': RUN,
+    "fsivsp modes examples/modes_2d.toml --out modes2d": RUN,
+    "fsivsp harmonic examples/harmonic_3d.toml --out harmonic3d": RUN,
+    "fsivsp modes examples/modes_2d.toml --out modes2d --count 4 --near 2.5": PARSE,  # the line above, other options
 }
 
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from fsivsp.config import boundaries, case, production
+from fsivsp.config import boundaries, case, frequency, production
 from fsivsp.config.keys import KEYS, names
 from fsivsp.geometry import KINDS
 
@@ -30,9 +30,11 @@ ACCEPTED = {
     "solver": case.SECTIONS["solver"],
     "exact": case.SECTIONS["exact"],
     "data": production.DATA_KEYS,
-    "boundary.NAME": boundaries.BOUNDARY_KEYS,
+    "boundary.NAME": boundaries.BOUNDARY_KEYS | {frequency.PHASE},
     "output": production.OUTPUT_KEYS,
     "checkpoint": production.CHECKPOINT_KEYS,
+    "harmonic": frequency.HARMONIC_KEYS,
+    "modes": frequency.MODES_KEYS,
 }
 
 
@@ -43,4 +45,5 @@ def test_every_accepted_key_is_documented_and_no_other(section):
 
 def test_every_section_is_on_the_page():
     assert {key.section for key in KEYS} == set(ACCEPTED)
-    assert production.RUN_SECTIONS | {"exact"} == {section.split(".")[0] for section in ACCEPTED}
+    sections = production.RUN_SECTIONS | {"exact"} | set(frequency.USED["harmonic"]["sections"]) | {"modes"}
+    assert sections == {section.split(".")[0] for section in ACCEPTED}

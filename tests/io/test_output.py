@@ -205,6 +205,23 @@ def test_probes_csv(tmp_path, scheme, mesh):
         assert (copy / name).read_text() == (tmp_path / name).read_text()
 
 
+def test_probe_on_the_interface_reads_the_fluid_pressure():
+    """A probe on Γ (here a vertex of the flat interface and a point of an edge) is evaluated in a fluid cell: its
+    pressure is the fluid's there (NGSolve's point search puts a point less than about 1e-8 above Γ in the solid cell
+    below, where the pressure is NaN), and velocity and pressure those of points just inside the fluid."""
+    mesh = fsivsp.geometry.fluid_over_solid(2, 0.25)
+    spaces = fsivsp.build_spaces(mesh, "taylor_hood", 2)
+    state = ngs.GridFunction(spaces.mixed)
+    velocity, pressure = state.components
+    velocity.Set(ngs.CF((ngs.x * ngs.y, ngs.y)))
+    pressure.Set(1 + ngs.x + ngs.y**2)
+    on = [(0.5, 0.5), (0.3, 0.5)]
+    found = Probes(mesh, points=on).sample(velocity, pressure)
+    above = Probes(mesh, points=[(x, y + 1e-4) for x, y in on]).sample(velocity, pressure)
+    assert np.allclose(found[1], [1.75, 1.55], atol=1e-5) and np.allclose(found[1], above[1], atol=2e-4)
+    assert np.allclose(found[0], [[0.25, 0.5], [0.15, 0.5]], atol=1e-5)
+
+
 def test_probe_outside_mesh(mesh):
     box = r"; expected a point in its bounding box \[0, 2\.5\] × \[0, 0\.41\]$"
     with pytest.raises(ValueError, match=r"^probe 1 at \(3, 0\.2\) is outside the mesh" + box):

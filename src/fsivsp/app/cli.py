@@ -1,5 +1,5 @@
-"""The command line: `fsivsp paper`, `study`, `run` and `matrix`, a handler each (their argument types in
-`arguments`)."""
+"""The command line: `fsivsp paper`, `study`, `run`, `harmonic`, `modes` and `matrix`, a handler each (their argument
+types in `arguments`)."""
 from __future__ import annotations
 
 import logging
@@ -26,6 +26,7 @@ from .arguments import (
     dt_list,
     level_arg,
     levels_arg,
+    non_negative_float,
     number_arg,
     petsc_argument,
     positive_float,
@@ -109,6 +110,27 @@ def build_parser() -> Parser:
     threads_option(run, f"the case's [discretisation] threads, else {DEFAULT_THREADS}")
     run.set_defaults(handler=run_command)
 
+    harmonic = commands.add_parser("harmonic", help="the harmonic response of a case at its frequencies",
+                                   description="One complex solve per frequency of the case file's [harmonic] "
+                                   "frequencies (amplitudes of x, a phase per boundary): harmonic.csv and "
+                                   "harmonic.png at the probes, vtk/harmonic.pvd, summary.json (docs/frequency.md).")
+    harmonic.add_argument("case", type=Path, metavar="CASE.toml", help="the case file, with a [harmonic] section")
+    frequency_options(harmonic)
+    harmonic.set_defaults(handler=harmonic_command)
+
+    modes = commands.add_parser("modes", help="the coupled modes of the fluid–structure system (SLEPc)",
+                                description="The N coupled oscillating modes nearest a frequency (default: the "
+                                "lowest) by shift-and-invert: modes.csv, overdamped.csv, modes.png, vtk/modes.pvd, "
+                                "summary.json (docs/frequency.md). Runs under mpirun.")
+    modes.add_argument("case", type=Path, metavar="CASE.toml", help="the case file (any but a study's)")
+    modes.add_argument("--count", type=positive_int, default=None, metavar="N",
+                       help="how many oscillating modes (default: the case's [modes] count, else 6)")
+    modes.add_argument("--near", type=non_negative_float, default=None, metavar="F",
+                       help="the frequency they are nearest to, in cycles per unit time (default: the case's "
+                       "[modes] near, else the lowest modes)")
+    frequency_options(modes)
+    modes.set_defaults(handler=modes_command)
+
     matrix = commands.add_parser("matrix", help="run the verification matrix and print it as a Markdown table",
                                  description="Every (element, dimension, configuration) entry of "
                                  "fsivsp.experiments.verification.TABLE on three levels, with least-squares "
@@ -123,6 +145,18 @@ def build_parser() -> Parser:
     threads_option(matrix)
     matrix.set_defaults(handler=matrix_command)
     return parser
+
+
+def frequency_options(parser) -> None:
+    """The options ``fsivsp harmonic`` and ``fsivsp modes`` share with ``fsivsp run``: --out, --quiet, --set,
+    --threads, -v."""
+    parser.add_argument("--out", type=Path, default=None, metavar="DIR",
+                        help="output folder (default: the case's name)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar, no set-up lines")
+    parser.add_argument("--set", action="append", default=[], dest="overrides", metavar="SECTION.KEY=VALUE",
+                        help="override a case-file key with a TOML value (validated like the file, recorded in "
+                        "summary.json; repeatable)")
+    threads_option(parser, f"the case's [discretisation] threads, else {DEFAULT_THREADS}")
 
 
 def paper_options(args, spec) -> dict:
@@ -249,6 +283,72 @@ def run_command(args) -> int:
     print(f"{summary['status']}: {summary['step']} steps to t = {summary['time']:g} on {threads} "
           f"thread{'s' * (threads > 1)}; results in {out}")
     return 0
+
+
+def frequency_command(args, command: str, call) -> int:
+    """``fsivsp harmonic`` and ``fsivsp modes`` (``call(out, overrides, threads)``, the API's function): exit 0,
+    2 (bad input), 3 (a solve failed), 4 (a file could not be written), 130/143 (SIGINT/SIGTERM: during set-up at
+    once, nothing written; later after the current frequency or outer iteration, with what was done written)."""
+    from ..config.overrides import parse_overrides
+    from ..io.atomic import WriteError
+    from ..runtime.stopping import STOP_SIGNALS, Terminated, raise_terminated
+    from ..solvers import SolverError
+
+    previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
+    try:
+        out = args.out or Path(args.case.stem)
+        threads = solver_spec(args, f"fsivsp {command}").threads   # checked before the case is read
+        summary = call(out, parse_overrides(args.overrides), threads)
+    except SolverError as error:
+        log.error("%s", error)
+        return 3
+    except WriteError as error:
+        log.error("%s", error)
+        return 4
+    except Terminated as stop:
+        print(stop.message(), file=sys.stderr)   # the command's last line (other ranks: `parallel.start`)
+        return stop.exit_code
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    print(summary_line(command, summary, out))
+    return 0
+
+
+def summary_line(command: str, summary: dict, out: Path) -> str:
+    """The command's last line of output: what it computed and where it is."""
+    if command == "harmonic":
+        solves = summary["solves"]
+        worst = max(solve["residual"] for solve in solves)
+        return (f"{summary['status']}: {len(solves)} frequencies, {summary['dofs']['free']} unknowns, residuals "
+                f"<= {worst:.1e}; results in {out}")
+    rows = ["mode  frequency     decay rate    damping ratio  residual"]
+    rows += [f"{m['index']:>4}  {m['frequency']:<12.6g}  {m['decay_rate']:<12.6g}  {m['damping_ratio']:<13.4g}  "
+             f"{m['residual']:.1e}" for m in summary["modes"]]
+    return "\n".join(rows + [f"{summary['status']}: {len(summary['modes'])} oscillating modes "
+                              f"({len(summary['overdamped'])} overdamped in overdamped.csv, {summary['static']} static "
+                              f"excluded); results in {out}"])
+
+
+def harmonic_command(args) -> int:
+    from .api import harmonic
+
+    distributed_check("harmonic", None, "interpolation", "the harmonic response")
+    return frequency_command(args, "harmonic", lambda out, overrides, threads: harmonic(
+        args.case, out, overrides=overrides, quiet=args.quiet, threads=threads))
+
+
+def modes_command(args) -> int:
+    from ..solvers import SolverError
+    from ..solvers.petsc_init import use
+    from .api import modes
+
+    try:
+        use("complex")   # before anything imports petsc4py: one PETSc build per process
+    except SolverError as error:
+        raise UsageError(f"fsivsp modes: {error}") from None
+    return frequency_command(args, "modes", lambda out, overrides, threads: modes(
+        args.case, out, count=args.count, near=args.near, overrides=overrides, quiet=args.quiet, threads=threads))
 
 
 def matrix_command(args) -> int:

@@ -201,13 +201,14 @@ def nearest_existing(out: Path) -> Path:
     return next(p for p in (out, *out.absolute().parents) if p.exists())
 
 
-def check_output_folder(out: Path) -> None:
-    """``--out``: a folder that is or can be made and written (`Refused` naming it, before any work)."""
+def check_output_folder(out: Path, command: str = "run") -> None:
+    """``--out`` of ``fsivsp COMMAND``: a folder that is or can be made and written (`Refused` naming it, before
+    any work)."""
     if out.exists() and not out.is_dir():
-        raise Refused(f"fsivsp run: --out {out}: expected a folder, found a file")
+        raise Refused(f"fsivsp {command}: --out {out}: expected a folder, found a file")
     existing = nearest_existing(out)
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        raise Refused(f"fsivsp run: --out {out}: {existing} is not a writable folder")
+        raise Refused(f"fsivsp {command}: --out {out}: {existing} is not a writable folder")
 
 
 def free_space(out: Path) -> int:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CaseError, is_number, is_whole
-from ..geometry import FLUID, FLUID_WALL, INTERFACE, SOLID, SOLID_WALL, Phases, adjacent_regions
+from ..geometry import FLUID, FLUID_WALL, INTERFACE, PERIODIC, SOLID, SOLID_WALL, Phases, adjacent_regions
 from ..geometry.sections import detect_section
 from ..model.data import HARMONICS, PROFILES, FlowRate, Support, Windkessel, resistance
 from ..model.expressions import ExpressionError, T, parse, parse_vector
@@ -160,12 +160,14 @@ def read_boundaries(table: dict, dim: int, folder: Path = Path(".")) -> dict[str
 
 
 def check_boundaries(boundaries: dict, mesh, phases: Phases) -> None:
-    """Every named boundary is one of the mesh's, not Γ, and borders the medium its condition needs; a flow-rate
-    inflow's boundary is a straight segment (2D) or a flat disk (3D) (`geometry.sections`)."""
+    """Every named boundary is one of the mesh's, not Γ nor a periodic side, and borders the medium its condition
+    needs; a flow-rate inflow's boundary is a straight segment (2D) or a flat disk (3D) (`geometry.sections`)."""
     present = set(mesh.GetBoundaries())
     for name, (kind, _) in boundaries.items():
         if name == INTERFACE:
             raise CaseError("boundary.interface: the interface is not a boundary (its conditions are built in)")
+        if name == PERIODIC:
+            raise CaseError("boundary.periodic: the sides of [geometry] periodic take no condition (they are glued)")
         if name not in present:
             names = ", ".join(sorted(present - {INTERFACE}))
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")

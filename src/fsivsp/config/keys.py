@@ -36,6 +36,10 @@ KEYS: list[Key] = [
         '`fluid_over_solid`: fluid box on a solid box'),
     Key('geometry', ('radius', 'length', 'wall'), '0.5, 5, 0.1',
         '`elastic_tube`: fluid cylinder along x in a solid wall; boundaries `inflow`, `outflow`, `solid_ends`'),
+    Key('geometry', ('periodic',), '`""`',
+        '`fluid_over_solid`: `"x"` (3D also `"y"`, `"xy"`), `elastic_tube`: `"x"`: the sides across those axes are '
+        'the boundary `periodic`, identified (layers, a tube of infinite extent; NGSolve\'s `Periodic` spaces; '
+        'serial only) ([docs/frequency.md](frequency.md#periodic-boundaries))'),
     Key('geometry', ('path', 'regions'), 'required, none',
         "relative to the case file's folder; `mesh`: a gmsh `.msh` (2.2/4.x; second-order cells curve the mesh) or "
         'netgen `.vol` file; `cad`: a STEP, BREP or IGES file. `regions` (`mesh`, `cad`) maps cell regions (a CAD '
@@ -91,23 +95,26 @@ KEYS: list[Key] = [
     Key('exact', ('velocity', 'pressure', 'displacement'), 'required',
         '`study` only: the exact v, p, u (∂t u = v is checked)'),
     Key('data', ('force_fluid', 'force_solid', 'velocity0', 'displacement0'), 'zero',
-        '`run` only: body forces and initial data'),
+        'body forces and initial data (`harmonic`: the body forces\' amplitudes, of x, y, z)'),
     Key('boundary.NAME', ('velocity', 'traction'), 'rest on `fluid_wall`, `solid_wall`; else traction-free',
-        '`run` only, one condition per boundary: Dirichlet v, or σn (d expressions)'),
+        'Dirichlet v, or σn: `run` of x, y, z, t; `harmonic` of x, y, z (the amplitude); `modes` takes a velocity '
+        'boundary at rest, a traction boundary free'),
+    Key('boundary.NAME', ('phase',), '0',
+        '`harmonic` only: the lag φ in degrees of the datum g(x) cos(2πft − φ) ([docs/frequency.md](frequency.md))'),
     Key('boundary.NAME', ('flow',), '—',
-        'a flow-rate inflow Q(t) into the domain: an expression of t, or `{ table = "q.csv" }` (rows time, Q; '
-        'linear in between), the velocity normal to a straight (2D) or flat circular (3D) boundary with the discrete '
-        'flux Q ([docs/commands.md](commands.md#outlets-inflows-and-support))'),
+        '`run` only: a flow-rate inflow Q(t) into the domain: an expression of t, or `{ table = "q.csv" }` '
+        '(rows time, Q; linear in between), the velocity normal to a straight (2D) or flat circular (3D) boundary '
+        'with the discrete flux Q ([docs/commands.md](commands.md#outlets-inflows-and-support))'),
     Key('boundary.NAME', ('profile', 'period', 'harmonics'), '`"parabolic"`, none, 10',
         'with `flow`: `"parabolic"`, `"plug"` or `"womersley"` (from the Fourier series of Q over `period`, '
         '`harmonics` terms, 1–100); `period` also makes a table periodic'),
     Key('boundary.NAME', ('resistance', 'distal_pressure'), '—, 0',
-        'an outlet σn = −(P_d + R Q) n, Q = ∫ v·n; P_d a number or an expression of t'),
+        '`run` only: an outlet σn = −(P_d + R Q) n, Q = ∫ v·n; P_d a number or an expression of t'),
     Key('boundary.NAME', ('windkessel',), '—',
-        '`{ proximal = R_p, capacitance = C, distal = R_d, distal_pressure = P_d }`: the RCR outlet '
+        '`run` only: `{ proximal = R_p, capacitance = C, distal = R_d, distal_pressure = P_d }`: the RCR outlet '
         'C dP_c/dt = Q − (P_c − P_d)/R_d, σn = −(P_c + R_p Q) n'),
     Key('boundary.NAME', ('support',), '—',
-        '`{ stiffness = k, damping = c }` on a solid boundary: tissue support σn = −k u − c v'),
+        '`run` only: `{ stiffness = k, damping = c }` on a solid boundary: tissue support σn = −k u − c v'),
     Key('output', ('every',), '10',
         '`run` only: VTK output every so many steps'),
     Key('output', ('probes', 'lines'), 'none',
@@ -121,6 +128,13 @@ KEYS: list[Key] = [
         'one VTU point per mesh vertex (fields averaged over the cells where they live) instead of a copy per cell'),
     Key('checkpoint', ('every',), '50',
         '`run` only: steps between checkpoints'),
+    Key('harmonic', ('frequencies',), 'required',
+        '`harmonic` only: the frequencies f (cycles per unit time, > 0), a list or `{ start, stop, count, spacing }` '
+        '(`spacing` `"linear"` or `"log"`, count numbers from start to stop); [data] force_fluid, force_solid and '
+        'the boundaries are then amplitudes of x ([docs/frequency.md](frequency.md))'),
+    Key('modes', ('count', 'near'), '6, the lowest',
+        '`modes` only (`--count`, `--near` override): how many oscillating modes, nearest which frequency F (the '
+        'target s = 2πiF; default: the lowest)'),
 ]
 
 
@@ -128,7 +142,8 @@ KEYS: list[Key] = [
 SECTIONS = {"geometry": "[geometry]", "materials": "[materials]", "materials.NAME": "[materials.NAME]",
             "time": "[time]",
             "discretisation": "[discretisation]", "solver": "[solver.petsc]", "exact": "[exact]", "data": "[data]",
-            "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]"}
+            "boundary.NAME": "[boundary.NAME]", "output": "[output]", "checkpoint": "[checkpoint]",
+            "harmonic": "[harmonic]", "modes": "[modes]"}
 
 
 def names(section: str) -> set[str]:

@@ -53,7 +53,8 @@ def _whole(table: dict, key: str, where: str, default: int) -> int:
     return value
 
 
-def _vector(value, field_name: str, dim: int) -> list:
+def read_vector(value, field_name: str, dim: int) -> list:
+    """d expressions (`model.expressions.parse_vector`), a bad one a `CaseError`."""
     try:
         return parse_vector(value, field_name, dim)
     except ExpressionError as error:
@@ -80,6 +81,7 @@ def _flag(table: dict, key: str, default: bool) -> bool:
 
 
 def read_output(table: dict, dim: int) -> dict[str, Any]:
+    """``[output]``: every key checked, with its default where not given."""
     check_keys(table, OUTPUT_KEYS, "output")
     lines = []
     for i, line in enumerate(table.get("lines", [])):
@@ -109,6 +111,16 @@ def check_surfaces(names: list[str], mesh) -> None:
                             f"{', '.join(sorted(present))}")
 
 
+def refined_mesh(geometry: dict, dim: int, project: bool):
+    """The mesh of a validated ``[geometry]`` table, refined ``refine`` times (projected onto the geometry if
+    ``project``)."""
+    refine = geometry.get("refine", 0)
+    if not is_whole(refine, 0, MAX_REFINE):
+        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
+    mesh = build_mesh(geometry, dim, skip=("refine",))
+    return refined(mesh, refine, project) if refine else mesh
+
+
 def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
     """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
     {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
@@ -118,18 +130,13 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     fields, dim = read_case(doc, path, young_allowed=True)
     data_table = section(doc, "data", required=False)
     check_keys(data_table, DATA_KEYS, "data")
-    data = {key: _vector(value, f"data.{key}", dim) for key, value in data_table.items()}
+    data = {key: read_vector(value, f"data.{key}", dim) for key, value in data_table.items()}
     boundaries = read_boundaries(section(doc, "boundary", required=False), dim, path.parent)
     output = read_output(section(doc, "output", required=False), dim)
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    refine = fields["geometry"].get("refine", 0)
-    if not is_whole(refine, 0, MAX_REFINE):
-        raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
-    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
-    if refine:
-        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
+    mesh = refined_mesh(fields["geometry"], dim, fields["discretisation"].project_refinement)
     phases = geometry_phases(fields["geometry"]["kind"], mesh, fields["geometry"].get("regions"))
     fields["materials"] = read_region_materials(section(doc, "materials"), fields["materials"], phases, dim,
                                                 young_allowed=True, discretisation=fields["discretisation"])

@@ -55,13 +55,22 @@ def read_toml(path: str | Path) -> dict:
         raise CaseError(f"{path}: not valid TOML: {str(error).splitlines()[0]}") from None
 
 
+#: The section that makes a case file a command's own: ``fsivsp study`` has [exact], ``fsivsp harmonic`` [harmonic]
+#: (``fsivsp modes`` takes any case but a study's; ``fsivsp run`` a case with neither).
+OWN_SECTIONS = {"study": "exact", "harmonic": "harmonic"}
+
+
 def check_command(doc: dict, path: Path, command: str) -> None:
-    """A study case (with ``[exact]``) given to ``fsivsp run``, or a run case (without) to ``fsivsp study``: a
-    `CaseError` saying which command to use."""
-    if ("exact" in doc) == (command == "study"):
-        return
-    other, why = ("study", "it has an [exact] section") if command == "run" else ("run", "it has no [exact] section")
-    raise CaseError(f"{path}: a case for `fsivsp {other}` ({why}); use `fsivsp {other} {path}`")
+    """A case file given to another command than its own (`OWN_SECTIONS`): a `CaseError` saying which command to use.
+    Only ``fsivsp study`` and ``fsivsp run`` tell a missing section so; ``fsivsp harmonic`` reports its missing
+    [harmonic] as any missing section."""
+    for other, name in OWN_SECTIONS.items():
+        if name in doc and other != command and not (command == "modes" and other == "harmonic"):
+            article = "an" if name[0] in "aeiou" else "a"
+            raise CaseError(f"{path}: a case for `fsivsp {other}` (it has {article} [{name}] section); "
+                            f"use `fsivsp {other} {path}`")
+    if command == "study" and "exact" not in doc:
+        raise CaseError(f"{path}: a case for `fsivsp run` (it has no [exact] section); use `fsivsp run {path}`")
 
 
 def section(doc: dict, name: str, required: bool = True) -> dict:

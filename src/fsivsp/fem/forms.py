@@ -154,6 +154,14 @@ def lagged_operator(spaces: Spaces, mat: Materials, stiffness: float, viscous: f
     return _with_supports(a, spaces, supports, lambda s: -stiffness * s.stiffness - viscous * s.damping)
 
 
+def divergence(spaces: Spaces) -> ngs.BilinearForm:
+    """Bᵀ: ∫_F p div w on X_h (velocity tests, pressure trials; `step_matrix` holds −Δt Bᵀ and −Δt B)."""
+    (_, p), (w, _) = spaces.mixed.TnT()
+    a = ngs.BilinearForm(spaces.mixed)
+    a += integral(p * div(w), spaces, FLUID)
+    return a
+
+
 def initial_projection(spaces: Spaces, mat: Materials) -> ngs.BilinearForm:
     """The Stokes projection (22) on Ω_F and the H¹ projection (23) on Ω_S, glued into one
     Galerkin problem on X_h: 2ν ∫_F ε(v):ε(w) + ∫_S ∇v:∇w − ∫_F p div w − ∫_F q div v."""

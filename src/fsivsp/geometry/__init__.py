@@ -39,6 +39,7 @@ from .regions import (
     INFLOW,
     INTERFACE,
     OUTFLOW,
+    PERIODIC,
     SOLID,
     SOLID_ENDS,
     SOLID_WALL,
@@ -49,6 +50,7 @@ from .regions import (
     check_regions,
     extent,
     interface_normal,
+    is_periodic,
     locked_fluid_cells,
     mesh_phases,
     pattern,
@@ -69,9 +71,9 @@ from .shapes import (
 )
 
 __all__ = [
-    "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS",
+    "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS", "PERIODIC",
     "GeometryError", "Phases", "adjacent_regions", "mesh_phases", "pattern", "geometry_phases",
-    "check_regions", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
+    "check_regions", "is_periodic", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
     "netgen_mesh", "without_geometry", "refined",
     "CHANNEL_WIDTH", "CHANNEL_HEIGHT", "DISK_CENTRE", "DISK_RADIUS", "DEFAULT_MAXH",
     "paper_channel", "fluid_in_solid", "solid_in_fluid", "fluid_over_solid", "elastic_tube",

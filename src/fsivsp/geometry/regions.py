@@ -7,12 +7,15 @@ from dataclasses import dataclass
 
 import ngsolve as ngs
 import numpy as np
+from netgen.meshing import IdentificationType
 
 from . import curved as quadratic
 
 FLUID, SOLID = "fluid", "solid"
 INTERFACE, FLUID_WALL, SOLID_WALL = "interface", "fluid_wall", "solid_wall"
 INFLOW, OUTFLOW, SOLID_ENDS = "inflow", "outflow", "solid_ends"  # boundary parts of `elastic_tube`
+#: The boundary of the sides that ``[geometry] periodic`` identifies (no condition: the periodic spaces glue them).
+PERIODIC = "periodic"
 
 
 def extent(mesh: ngs.Mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -23,6 +26,14 @@ def extent(mesh: ngs.Mesh) -> tuple[np.ndarray, np.ndarray]:
     low = np.min(parallel.gather(points.min(axis=0) if len(points) else np.full(mesh.dim, np.inf)), axis=0)
     high = np.max(parallel.gather(points.max(axis=0) if len(points) else np.full(mesh.dim, -np.inf)), axis=0)
     return low, high
+
+
+def is_periodic(mesh: ngs.Mesh) -> bool:
+    """Whether the mesh identifies boundary points periodically (``[geometry] periodic``; its spaces are then
+    NGSolve's ``Periodic`` ones, `fem.spaces`)."""
+    ngmesh = mesh.ngmesh
+    return any(ngmesh.GetIdentificationType(nr) == IdentificationType.PERIODIC
+               for nr in range(1, ngmesh.GetNrIdentifications() + 1)) and bool(ngmesh.GetIdentifications())
 
 
 class GeometryError(ValueError):
@@ -116,7 +127,11 @@ def adjacent_regions(mesh: ngs.Mesh, boundary: str) -> set[str]:
 
 
 def check_distributable(mesh: ngs.Mesh) -> None:
-    """Refuse, under mpirun, a mesh file's quadratic cells (`quadratic`): they are kept on the whole mesh."""
+    """Refuse, under mpirun, a mesh file's quadratic cells (`quadratic`): they are kept on the whole mesh; and a
+    periodic mesh (`is_periodic`): a run of its periodic spaces over 2 ranks never finished its first step (NGSolve
+    6.2.2608, the 2D layers of ``[geometry] periodic``)."""
+    if is_periodic(mesh):
+        raise GeometryError("geometry.periodic: a periodic mesh does not run under mpirun; run without mpirun")
     cells = quadratic.quadratic_cells(mesh)
     if cells is not None:
         raise GeometryError(f"mesh file {cells.source}: second-order cells are not supported under mpirun "

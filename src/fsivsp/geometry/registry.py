@@ -32,13 +32,13 @@ KINDS: dict[str, dict[str, Any]] = {
     "fluid_over_solid": {
         "dims": (2, 3),
         "maxh": DEFAULT_MAXH["fluid_over_solid"],
-        "parameters": {"width": 1.0, "solid_height": 0.5, "fluid_height": 0.5},
+        "parameters": {"width": 1.0, "solid_height": 0.5, "fluid_height": 0.5, "periodic": ""},
         "description": "a fluid rectangle/box on top of a solid one, flat interface at height solid_height",
     },
     "elastic_tube": {
         "dims": (2, 3),
         "maxh": DEFAULT_MAXH["elastic_tube"],
-        "parameters": {"radius": 0.5, "length": 5.0, "wall": 0.1},
+        "parameters": {"radius": 0.5, "length": 5.0, "wall": 0.1, "periodic": ""},
         "description": "a fluid cylinder along x inside a solid tube wall (2D: the axial section); "
                        "boundaries inflow, outflow, interface, solid_ends, solid_wall",
     },

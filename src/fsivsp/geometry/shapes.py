@@ -6,10 +6,11 @@ from collections.abc import Sequence
 from typing import Any
 
 import ngsolve as ngs
-from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z
+from netgen.meshing import IdentificationType
+from netgen.occ import Box, Circle, Cylinder, Glue, MoveTo, OCCGeometry, Pnt, Rectangle, Sphere, X, Y, Z, gp_Trsf
 
 from .params import dimension, fail, point_parameter, positive
-from .regions import FLUID, FLUID_WALL, INFLOW, INTERFACE, OUTFLOW, SOLID, SOLID_ENDS, SOLID_WALL
+from .regions import FLUID, FLUID_WALL, INFLOW, INTERFACE, OUTFLOW, PERIODIC, SOLID, SOLID_ENDS, SOLID_WALL
 
 #: The paper's domain (Section 5.3): channel width and height, disk centre (c, c) and radius.
 CHANNEL_WIDTH, CHANNEL_HEIGHT, DISK_CENTRE, DISK_RADIUS = 2.5, 0.41, 0.2, 0.05
@@ -97,17 +98,47 @@ def solid_in_fluid(dim: int = 2, maxh: float | None = None, *, size: float = 1.0
                       curvature_safety)
 
 
+def periodic_axes(value: Any, allowed: str) -> str:
+    """``[geometry] periodic``: the axes (a string of letters from ``allowed``, each once) along which the
+    shape is periodic; "" (the default) for none."""
+    if not isinstance(value, str) or len(set(value)) != len(value) or not set(value) <= set(allowed):
+        choices = " or ".join(f'"{a}"' for a in _axis_sets(allowed))
+        raise fail("periodic", f"{choices} (the axes along which the shape repeats), or \"\" for none", value)
+    return "".join(sorted(value))
+
+
+def _axis_sets(allowed: str) -> list[str]:
+    return [allowed[i] for i in range(len(allowed))] + ([allowed] if len(allowed) > 1 else [])
+
+
+def identify(parts, dim: int, axes: str, lengths: dict[str, float]) -> None:
+    """Make each of ``parts`` (OCC shapes, before they are glued) periodic along ``axes``: its two boundaries
+    at the lowest and highest coordinate along an axis are named `PERIODIC` and identified by the translation
+    by ``lengths[axis]`` (netgen's periodic identification, kept by `refine.refined`)."""
+    directions = {"x": (X, (1, 0, 0)), "y": (Y, (0, 1, 0))}
+    for part in parts:
+        boundaries = part.edges if dim == 2 else part.faces
+        for axis in axes:
+            direction, unit = directions[axis]
+            low, high = boundaries.Min(direction), boundaries.Max(direction)
+            low.name = high.name = PERIODIC
+            shift = gp_Trsf.Translation(tuple(lengths[axis] * c for c in unit))
+            low.Identify(high, f"{PERIODIC}_{axis}", IdentificationType.PERIODIC, shift)
+
+
 def fluid_over_solid(dim: int = 2, maxh: float | None = None, *, width: float = 1.0,
-                     solid_height: float = 0.5, fluid_height: float = 0.5) -> ngs.Mesh:
+                     solid_height: float = 0.5, fluid_height: float = 0.5, periodic: str = "") -> ngs.Mesh:
     """Ω_S = (0, width)^(dim-1) × (0, solid_height), Ω_F = (0, width)^(dim-1) × (solid_height,
     solid_height + fluid_height): a flat interface at the top of the solid (y = solid_height in
-    2D, z = solid_height in 3D). The rest of ∂Ω_F is ``fluid_wall``, of ∂Ω_S ``solid_wall``.
-    ``maxh`` defaults to 0.1 (2D) / 0.2 (3D)."""
+    2D, z = solid_height in 3D). The rest of ∂Ω_F is ``fluid_wall``, of ∂Ω_S ``solid_wall``; ``periodic``
+    ("x", and in 3D "y" or "xy"): the sides across those axes are instead the boundary ``periodic``, identified
+    (`identify`): layers of infinite extent. ``maxh`` defaults to 0.1 (2D) / 0.2 (3D)."""
     kind = "fluid_over_solid"
     dim = dimension(kind, dim)
     h = _mesh_size(kind, dim, maxh)
     width = positive("width", width)
     hs, hf = positive("solid_height", solid_height), positive("fluid_height", fluid_height)
+    axes = periodic_axes(periodic, "x" if dim == 2 else "xy")
     if dim == 2:
         solid = Rectangle(width, hs).Face()
         fluid = MoveTo(0, hs).Rectangle(width, hf).Face()
@@ -121,23 +152,26 @@ def fluid_over_solid(dim: int = 2, maxh: float | None = None, *, width: float = 
         solid.faces.Max(Z).name = fluid.faces.Min(Z).name = INTERFACE
         solid.mat(SOLID)
         fluid.mat(FLUID)
+    identify((solid, fluid), dim, axes, {"x": width, "y": width})
     return occ_mesh(Glue([solid, fluid]), dim, h)
 
 
 def elastic_tube(dim: int = 2, maxh: float | None = None, *, radius: float = 0.5, length: float = 5.0,
-                 wall: float = 0.1) -> ngs.Mesh:
+                 wall: float = 0.1, periodic: str = "") -> ngs.Mesh:
     """A straight elastic tube along the x axis. 3D: Ω_F the cylinder of ``radius`` and
     ``length``, Ω_S the tube wall of thickness ``wall`` around it. 2D (the axial section):
     Ω_F = (0, L) × (-R, R), Ω_S = (0, L) × (R, R + wall) ∪ (0, L) × (-R - wall, -R).
 
     Boundaries: ``inflow`` (fluid, x = 0), ``outflow`` (fluid, x = L), ``interface``,
     ``solid_ends`` (the solid at x = 0 and x = L), ``solid_wall`` (the outer surface); there is
-    no ``fluid_wall``. ``maxh`` defaults to 0.1 (2D) / 0.3 (3D); the wall gets at least one
-    element across whatever ``maxh``."""
+    no ``fluid_wall``. ``periodic = "x"``: the ends x = 0 and x = L (fluid and wall) are instead the boundary
+    ``periodic``, identified (`identify`): a tube of infinite length. ``maxh`` defaults to 0.1 (2D) / 0.3 (3D);
+    the wall gets at least one element across whatever ``maxh``."""
     kind = "elastic_tube"
     dim = dimension(kind, dim)
     h = _mesh_size(kind, dim, maxh)
     r, length, wall = positive("radius", radius), positive("length", length), positive("wall", wall)
+    axes = periodic_axes(periodic, "x")
     if dim == 2:
         fluid = MoveTo(0, -r).Rectangle(length, 2 * r).Face()
         fluid.edges.name = INTERFACE
@@ -151,6 +185,7 @@ def elastic_tube(dim: int = 2, maxh: float | None = None, *, radius: float = 0.5
             (solid.edges.Min(Y) if above else solid.edges.Max(Y)).name = INTERFACE
             solid.faces.name = SOLID
             walls.append(solid)
+        identify((fluid, *walls), 2, axes, {"x": length})
         return occ_mesh(Glue([fluid, *walls]), 2, h)
     fluid = Cylinder(Pnt(0, 0, 0), X, r=r, h=length, bottom=INFLOW, top=OUTFLOW, mantle=INTERFACE)
     outer = Cylinder(Pnt(0, 0, 0), X, r=r + wall, h=length, bottom=SOLID_ENDS, top=SOLID_ENDS,
@@ -158,4 +193,5 @@ def elastic_tube(dim: int = 2, maxh: float | None = None, *, radius: float = 0.5
     solid = outer - fluid  # the inner mantle inherits the name `interface`
     solid.mat(SOLID)
     fluid.mat(FLUID)
+    identify((solid, fluid), 3, axes, {"x": length})
     return occ_mesh(Glue([solid, fluid]), 3, h)

@@ -21,17 +21,22 @@ def bounding_box(mesh: ngs.Mesh) -> str:
     return " × ".join(f"[{tidy(a):g}, {tidy(b):g}]" for a, b in zip(low, high))
 
 
+#: How far (times the mesh's size) a point on Γ is moved into a fluid cell (`_fluid_side`): NGSolve's point search
+#: counts a point within about 1e-8 of a cell as in it (a point 1e-9 above Γ was found in the solid cell below).
+FLUID_SIDE_STEP = 1e-6
+
+
 def _fluid_side(mesh: ngs.Mesh, coords: np.ndarray, fluid: tuple[str, ...]) -> np.ndarray:
     """``coords`` with every point that the mesh search puts in a solid cell but that lies on a fluid cell's
-    boundary (a point on Γ) moved by 1e-9 of the mesh's size into that fluid cell, where the pressure lives
-    (``fluid``: the fluid's cell regions)."""
+    boundary (a point on Γ) moved by `FLUID_SIDE_STEP` of the mesh's size into that fluid cell, where the pressure
+    lives (``fluid``: the fluid's cell regions)."""
     located = mesh(*(coords[:, k] for k in range(coords.shape[1])))
     solid = [i for i, nr in enumerate(located["nr"])
              if nr >= 0 and mesh[ngs.ElementId(ngs.VOL, int(nr))].mat not in fluid]
     if not solid:
         return coords
     points = np.array([v.point for v in mesh.vertices], dtype=float)
-    step = 1e-9 * max(float(np.ptp(points, axis=0).max()), 1.0)
+    step = FLUID_SIDE_STEP * max(float(np.ptp(points, axis=0).max()), 1.0)
     coords = coords.copy()
     directions = [np.array(c, float) - 1 for c in np.ndindex(*(3,) * coords.shape[1]) if any(np.array(c) != 1)]
     for i in solid:
@@ -105,28 +110,32 @@ class Probes:
         fluid = np.array([mesh[ngs.ElementId(ngs.VOL, int(nr))].mat in self.fluid for nr in located["nr"][mine]])
         return (located[mine], mine), fluid
 
-    def _evaluate(self, scheme, located, fluid) -> tuple[np.ndarray, np.ndarray]:
+    def _evaluate(self, velocity, pressure, located, fluid) -> tuple[np.ndarray, np.ndarray]:
         (points, mine), n = located, len(located[1])
-        values = np.zeros((n, self.dim + 1))
+        values = np.zeros((n, self.dim + 1), dtype=complex if velocity.is_complex or pressure.is_complex else float)
         if mine.any():
-            values[mine, :self.dim] = np.asarray(scheme.velocity(points)).reshape(-1, self.dim)
-            pressure = np.asarray(scheme.pressure(points), dtype=float).reshape(-1)
-            values[mine, self.dim] = np.where(fluid, pressure, np.nan)
+            values[mine, :self.dim] = np.asarray(velocity(points)).reshape(-1, self.dim)
+            values[mine, self.dim] = np.where(fluid, np.asarray(pressure(points)).reshape(-1), np.nan)
         values = parallel.total(values)  # each point's values come from one rank
         return values[:, :self.dim], values[:, self.dim]
+
+    def sample(self, velocity, pressure) -> tuple[np.ndarray, np.ndarray]:
+        """The point probes' values of the fields ``velocity`` and ``pressure`` (CoefficientFunctions, complex ones
+        too): velocity (points × d) and pressure (NaN in the solid)."""
+        return self._evaluate(velocity, pressure, self._point_locations, self._point_fluid)
 
     def record(self, scheme) -> None:
         """Append the values of the scheme's current state (step ``scheme.n``)."""
         step, time = int(scheme.n), float(scheme.time)
         row = [step, time]
         if len(self.points):
-            velocity, pressure = self._evaluate(scheme, self._point_locations, self._point_fluid)
+            velocity, pressure = self.sample(scheme.velocity, scheme.pressure)
             for v, p in zip(velocity, pressure):
                 row += [float(c) for c in v] + [float(p)]
         self.probe_rows.append(row)
         for i, (coords, s, located, fluid) in enumerate(zip(self._line_points, self._line_s,
                                                             self._line_locations, self._line_fluid)):
-            velocity, pressure = self._evaluate(scheme, located, fluid)
+            velocity, pressure = self._evaluate(scheme.velocity, scheme.pressure, located, fluid)
             for k in range(len(s)):
                 self.line_rows.append([step, time, i, float(s[k])] + [float(c) for c in coords[k]]
                                       + [float(c) for c in velocity[k]] + [float(pressure[k])])
@@ -159,7 +168,7 @@ class Probes:
         paths = directory / "probes.csv", directory / "lines.csv"
         for path, columns, rows in zip(paths, (self.probe_columns, self.line_columns),
                                        (self.probe_rows, self.line_rows)):
-            atomic.write_text(path, _csv(columns, rows))
+            atomic.write_text(path, csv_text(columns, rows))
         return paths
 
     # -- checkpoints --------------------------------------------------------------
@@ -191,6 +200,7 @@ def _cell(value) -> str:
     return repr(float(value))
 
 
-def _csv(columns: list[str], rows) -> str:
+def csv_text(columns: list[str], rows) -> str:
+    """A CSV table: a header, then one line per row (whole numbers as such, every float to its last digit)."""
     lines = [",".join(columns)] + [",".join(_cell(c) for c in row) for row in rows]
     return "\n".join(lines) + "\n"

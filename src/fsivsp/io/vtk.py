@@ -203,7 +203,7 @@ def _merge(points, cells, point_data, cell_region):
     for name, values in point_data.items():
         values = np.asarray(values, dtype=float)
         flat = values.reshape(len(points), -1)
-        home = HOME.get(name)
+        home = HOME.get(name.removesuffix("_real").removesuffix("_imag"))   # a complex field's parts too
         weight = np.ones(len(points)) if home is None else (copy_region == home).astype(float)
         total = np.zeros((len(unique), flat.shape[1]))
         np.add.at(total, index, flat * weight[:, None])

@@ -30,7 +30,7 @@ from ..model.materials import Materials
 from ..runtime import parallel
 from ..runtime.threads import idle
 from .base import NotConverged
-from .petsc_init import petsc, register, unregister
+from .petsc_init import entered_options, petsc, register, unregister
 from .petsc_layout import aij, from_summands, layout
 from .petsc_schur import pressure_block
 from .sparse import to_scipy_csr
@@ -127,24 +127,24 @@ class PETScSolver:
 
         defaults = {**DEFAULTS, **(DEFAULTS_3D if spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {})}
-        self.options = self._set_options(PETSc, defaults, options or {})
-        self.ksp = PETSc.KSP().create(comm=self.comm)
-        self.ksp.setOptionsPrefix(PREFIX)
-        self.ksp.setOperators(self.A)
-        pc = self.ksp.getPC()
-        pc.setType("fieldsplit")
-        pc.setFieldSplitIS(("velocity", self.fields[0]), ("pressure", self.fields[1]))
-        self.ksp.setFromOptions()
-        self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
-        self.ksp.setInitialGuessNonzero(self.ksp.getType() != "preonly")  # the previous step (a direct solve: none)
-        self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
-        if pc.getType() == "fieldsplit":
-            if self.options.get("pc_fieldsplit_type") == "schur" and self.options["schur_approximation"] != "petsc":
-                self._schur = pressure_block(self, spaces, materials, dt)
-            self.ksp.setUp()
-            for block in pc.getFieldSplitSubKSP():  # else PETSc sets up the AMG at the first solve
-                block.setUp()
-        self._clear_options()
+        with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
+            self.ksp = PETSc.KSP().create(comm=self.comm)
+            self.ksp.setOptionsPrefix(PREFIX)
+            self.ksp.setOperators(self.A)
+            pc = self.ksp.getPC()
+            pc.setType("fieldsplit")
+            pc.setFieldSplitIS(("velocity", self.fields[0]), ("pressure", self.fields[1]))
+            self.ksp.setFromOptions()
+            self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
+            self.ksp.setInitialGuessNonzero(self.ksp.getType() != "preonly")  # the previous step (direct: none)
+            self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
+            if pc.getType() == "fieldsplit":
+                if (self.options.get("pc_fieldsplit_type") == "schur"
+                        and self.options["schur_approximation"] != "petsc"):
+                    self._schur = pressure_block(self, spaces, materials, dt)
+                self.ksp.setUp()
+                for block in pc.getFieldSplitSubKSP():  # else PETSc sets up the AMG at the first solve
+                    block.setUp()
         self._local = PETSc.Vec().createSeq(len(L.local), comm=PETSc.COMM_SELF)
         self._scatter = PETSc.Scatter().create(self._x, PETSc.IS().createGeneral(self._numbers, comm=PETSc.COMM_SELF),
                                                self._local, None)
@@ -163,27 +163,6 @@ class PETScSolver:
             self.A.mult(self._x, self._b)
             times.append(time.perf_counter() - start)
         return min(times)
-
-    def _set_options(self, PETSc, defaults: dict[str, str], options: Mapping[str, object]) -> dict[str, str]:
-        """Enter ``defaults`` (`DEFAULTS`, `DEFAULTS_3D`), then ``options`` (the case file's or the command line's),
-        into PETSc's options database under `PREFIX`; what the user set there already (PETSC_OPTIONS) is kept. Returns
-        the options in force."""
-        database = PETSc.Options()
-        given = {str(k).lstrip("-").removeprefix(PREFIX): v for k, v in options.items()}
-        entered = []
-        for key, value in {**defaults, **given}.items():
-            if key in given or not database.hasName(PREFIX + key):
-                database[PREFIX + key] = "" if value is True else str(value)
-                entered.append(PREFIX + key)
-        self._entered = entered
-        return {key: database.getString(PREFIX + key, "") for key in {**defaults, **given}}
-
-    def _clear_options(self) -> None:
-        """Take this solver's entries out of PETSc's options database again (it is one per process: the next
-        solver, another level or another case, starts from PETSC_OPTIONS and its own options only)."""
-        database = self.PETSc.Options()
-        for name in self._entered:
-            database.delValue(name)
 
     def _matrix(self, local):
         """The step matrix on the free dofs as a PETSc AIJ matrix from ``local``, this rank's matrix on its free

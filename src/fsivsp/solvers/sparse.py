@@ -33,14 +33,40 @@ def to_ngsolve(matrix) -> ngs.BaseMatrix:
     return ngs.la.SparseMatrixd.CreateFromCOO(coo.row, coo.col, coo.data, matrix.shape[0], matrix.shape[1])
 
 
-def compact(matrix) -> ngs.BaseMatrix:
+def compact(matrix, symmetric: bool = False) -> ngs.BaseMatrix:
     """The same operator without stored zeros (NGSolve's ``DeleteZeroElements``, in place of memory). A
     form on a product space stores every pair of dofs of an element, so e.g. the velocity mass on
     V_h × Q_h keeps 2.4× its nonzeros (no coupling between components or with the pressure); a product
-    costs its stored entries. A distributed matrix (``ParallelMatrix``, under MPI) is returned as it is."""
+    costs its stored entries. A distributed matrix (``ParallelMatrix``, under MPI) is returned as it is.
+
+    With ``symmetric`` the pattern is made symmetric again (`symmetric_pattern`): on periodic spaces an entry
+    that vanishes analytically sums to an exact 0 on one side of the diagonal and to round-off (1e-19 of the
+    largest entry) on the other, and NGSolve's PARDISO fails on the one-sided pattern ("illegal position")."""
     if isinstance(matrix, ngs.la.ParallelMatrix):
         return matrix
-    return matrix.DeleteZeroElements(0.0)
+    compacted = matrix.DeleteZeroElements(0.0)
+    return symmetric_pattern(compacted) if symmetric else compacted
+
+
+def symmetric_pattern(matrix) -> ngs.BaseMatrix:
+    """``matrix`` itself if its pattern is symmetric (or it is not square), else a copy that also stores the
+    transposed positions of its one-sided entries (as zeros)."""
+    import scipy.sparse as sp
+
+    if matrix.height != matrix.width:
+        return matrix
+    _, cols, rowptr = matrix.CSR()
+    cols, rowptr = np.asarray(cols, dtype=np.int64), np.asarray(rowptr, dtype=np.int64)
+    pattern = sp.csr_matrix((np.ones(len(cols), dtype=np.int8), cols, rowptr), shape=(matrix.height,) * 2)
+    missing = (pattern.T - pattern).tocoo()
+    missing = (missing.row[missing.data > 0], missing.col[missing.data > 0])
+    if not len(missing[0]):
+        return matrix
+    full = _raw_csr(matrix).tocoo()
+    return ngs.la.SparseMatrixd.CreateFromCOO(np.concatenate([full.row, missing[0]]),
+                                              np.concatenate([full.col, missing[1]]),
+                                              np.concatenate([full.data, np.zeros(len(missing[0]))]),
+                                              matrix.height, matrix.width)
 
 
 def _stores_lower_triangle(matrix) -> bool:

@@ -87,7 +87,7 @@ class Scheme:
 
         with stage("assembly"):
             step = forms.step_matrix(spaces, mat, self.tau, supports).Assemble()
-            self._matrix = compact(step.mat)
+            self._matrix = compact(step.mat, symmetric=spaces.periodic)
             del step
             self.flux_vectors = [flux_vector(spaces, outlet.name) for outlet in self.outlets]
         with stage("solver") as label:
