@@ -10,14 +10,15 @@ lines, vtk, subdivision, continuous) and ``[checkpoint]`` (every).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from ..errors import CaseError, is_number, is_whole
-from ..geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined
+from ..geometry import FLUID_WALL, INTERFACE, SOLID_WALL, refined, refined_part
 from ..model.expressions import ExpressionError, parse_vector
 from ..model.fields import Field
+from ..runtime import parallel
 from .case import Case, build_mesh, read_case
 from .overrides import case_document
 from .readers import check_command, check_keys, section
@@ -35,7 +36,8 @@ MAX_REFINE = 6
 @dataclass(kw_only=True)
 class RunCase(Case):
     """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
-    and refined at load), data, boundaries, output and checkpoints."""
+    and refined at load, or ``refine`` refinements still to make: `refine_over_ranks`), data, boundaries, output and
+    checkpoints."""
 
     dim: int
     data: dict[str, list]
@@ -44,6 +46,7 @@ class RunCase(Case):
     checkpoint_every: int
     mesh: Any = field(default=None, repr=False)
     overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
+    refine: int = 0   #: uniform refinements of ``mesh`` still to make
 
 
 def _whole(table: dict, key: str, where: str, default: int) -> int:
@@ -120,9 +123,10 @@ def check_boundaries(boundaries: dict, mesh) -> None:
             raise CaseError(f"boundary.{name}: no boundary of that name in the mesh; expected one of {names}")
 
 
-def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
+def load_run_case(source: str | Path | dict, overrides: dict | None = None, coarse: bool = False) -> RunCase:
     """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
-    {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
+    {dotted key: value} applied first, `overrides`), including the mesh's boundary names. ``coarse``: the mesh as
+    generated or read, its ``[geometry] refine`` left to `refine_over_ranks` (``fsivsp run`` estimates first)."""
     path, doc = case_document(source, overrides)
     check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
@@ -139,11 +143,19 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     if not is_whole(refine, 0, MAX_REFINE):
         raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
     mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
-    if refine:
-        mesh = refined(mesh, refine, fields["discretisation"].project_refinement)
     check_boundaries(boundaries, mesh)
+    if refine and not coarse:
+        mesh, refine = refined(mesh, refine, fields["discretisation"].project_refinement), 0
     return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
-                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}))
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}), refine=refine)
+
+
+def refine_over_ranks(case: RunCase) -> RunCase:
+    """``case`` with its ``refine`` refinements made; under mpirun rank 0's mesh handed out and every rank's part
+    refined where it lives (`geometry.refined_part`; the case's mesh is then this rank's part)."""
+    if not case.refine and not parallel.distributed():
+        return case
+    return replace(case, mesh=refined_part(case.mesh, case.refine, case.discretisation.project_refinement), refine=0)
 
 
 def boundary_conditions(case: RunCase) -> tuple[dict[str, Field], dict[str, Field]]:
