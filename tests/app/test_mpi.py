@@ -21,10 +21,9 @@ RELATIVE = 1e-6
 #: ``fsivsp ARGS`` with `geometry.distribute.FAIR_SHARE` set to ``SHARE`` (the first argument), so that the tests'
 #: small meshes are refined partly on rank 0 and partly on every rank, as large ones are.
 SHARED = """
-import sys
-from fsivsp.geometry import distribute
+import importlib, sys
 from fsivsp.app.cli import main
-distribute.FAIR_SHARE = int(sys.argv.pop(1))
+importlib.import_module("fsivsp.geometry.distribute").FAIR_SHARE = int(sys.argv.pop(1))  # the module, not the function
 sys.exit(main(sys.argv[1:]))
 """
 
@@ -39,7 +38,19 @@ force_solid = ["0", "x", "0"]
 vtk = false
 """
 
+#: The 2D fluid disk in a solid square of examples/fluid_in_solid_2d.toml, Taylor–Hood on curved cells, refined once.
+DISK = (ROOT / "examples" / "fluid_in_solid_2d.toml").read_text().split("[discretisation]")[0].replace(
+    "[geometry]", "[geometry]\nrefine = 1") + """
+[discretisation]
+family = "taylor_hood"
 
+[data]
+force_fluid = ["sin(pi*y)*t", "0"]
+force_solid = ["0", "x"]
+
+[output]
+vtk = false
+"""
 
 
 def assert_close(serial: dict, distributed: dict, where: str, relative: float = RELATIVE) -> None:
@@ -60,14 +71,15 @@ def test_serial_helpers_are_identities():
     (BALL.replace("[geometry]", "[geometry]\nrefine = 2").replace("maxh = 0.4", "maxh = 0.6").replace("T = 0.1\n",
                                                                                                   "T = 0.04\n"),
      None, "petsc", 3, 1e-8),
-    (TUBE, "mini", "direct", 2, RELATIVE)],
-    ids=["ball-3d-iterative", "tube-2d-auto-petsc", "ball-3d-refined-on-3-ranks", "tube-2d-mumps"])
+    (TUBE, "mini", "direct", 2, RELATIVE), (DISK, None, None, 2, 1e-8)],
+    ids=["ball-3d-iterative", "tube-2d-auto-petsc", "ball-3d-refined-on-3-ranks", "tube-2d-mumps", "disk-2d-curved"])
 def test_run_equals_serial(tmp_path, text, family, solver, ranks, relative):
     """``fsivsp run`` on 2 (3) ranks: the same counts, energies at every step and final L² norms as the serial
     run; PETSc's solvers over all ranks (rank 0 too) by default and with ``"iterative"``, ``"petsc"`` or ``"direct"``
     (MUMPS). The ball refined twice on 3 ranks, the first time on rank 0 and the second on every rank (onto the
-    sphere; a small `FAIR_SHARE`), gives the serial refinement's mesh, so the serial run's numbers to 1e-8; the
-    ranks' cells add up to the mesh's, rank 0 holding none."""
+    sphere; a small `FAIR_SHARE`), gives the serial refinement's mesh, so the serial run's numbers to 1e-8, and so
+    does the disk refined on the ranks, its Taylor–Hood cells curved there (until issue 36 only rank 0 had the
+    geometry: the other ranks' cells stayed straight); the ranks' cells add up to the mesh's, rank 0 holding none."""
     case = tmp_path / "case.toml"
     text = text.format(family=family)
     if solver:

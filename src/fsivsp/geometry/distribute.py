@@ -42,14 +42,17 @@ def root_levels(cells: int, dim: int, ranks: int) -> int:
 
 
 def _root_refined(mesh: ngs.Mesh, levels: int, project: bool) -> nm.Mesh:
-    """A copy of rank 0's netgen mesh refined ``levels`` times as `refine.refined` does, the reversed tetrahedra's
-    marks written into their vertex order (`REVERSED_CHILDREN`)."""
+    """A copy of rank 0's netgen mesh refined ``levels`` times as `refine.refined` does, without the refinement's
+    levels (with them, NGSolve's prolongation on rank 0's emptied part ran without end once the ranks refined
+    further), the reversed tetrahedra's marks written into their vertex order (`REVERSED_CHILDREN`)."""
     ngmesh = mesh.ngmesh.Copy() if project else without_geometry(mesh).ngmesh
     marked = np.zeros(mesh.ne if mesh.dim == 3 else 0, dtype=bool)   # the coarse mesh's cells: none
     for _ in range(levels):
         ngmesh.Refine(adaptive=False)
         children = np.arange(7 * len(marked))   # cell k stays child 0 of itself; n + 7k + j - 1 is its child j
         marked = np.concatenate([marked, marked[children // 7] ^ REVERSED_CHILDREN[children % 7 + 1]])
+    if levels:
+        ngmesh = ngmesh.Copy()   # netgen's copy keeps the cells, their vertex order and the geometry, not the levels
     if marked.any():
         nodes = ngmesh.Elements3D().NumPy()["nodes"]   # a view of netgen's cells
         nodes[marked, 2:4] = nodes[marked, 3:1:-1]
@@ -78,6 +81,33 @@ def _hand_out(mesh: ngs.Mesh | None, levels: int, project: bool, geometry: objec
     return ngmesh
 
 
+def _agree(part: nm.Mesh) -> None:
+    """Every rank's copy of a boundary vertex where the serial refinement puts it. Refining its part, a rank places a
+    new boundary vertex onto the geometry only if it holds a boundary segment (onto the curve) or boundary face (onto
+    the surface) through it, as the serial refinement, which holds them all, does; a rank that holds only a cell
+    through it puts it at the edge's midpoint. Each copy takes the mean of the copies of the ranks with a segment
+    through the vertex, or else with a face (identical up to round-off)."""
+    mesh = ngs.Mesh(part)
+    points = part.Coordinates()   # a view of netgen's points
+    space = ngs.H1(mesh, order=1)   # one dof per vertex, in the vertices' order
+    field = ngs.GridFunction(space)
+    values = field.vec.FV().NumPy()
+    found = np.zeros(len(points), dtype=bool)
+    for elements, corners in ((part.Elements1D(), 2), (part.Elements2D(), 3))[:mesh.dim - 1]:
+        held = np.zeros(len(points), dtype=bool)
+        held[elements.NumPy()["nodes"][:, :corners].ravel() - 1] = True   # the segments' or faces' corners
+        sums = []
+        for column in (*points[:, :mesh.dim].T, np.ones(len(points))):
+            values[:] = np.where(held, column, 0.0)
+            field.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+            field.vec.Cumulate()
+            sums.append(values.copy())
+        copies = sums.pop()
+        chosen = (copies > 0) & ~found
+        points[chosen, :mesh.dim] = np.column_stack(sums)[chosen] / copies[chosen, None]
+        found |= copies > 0
+
+
 def refined_parts(mesh: ngs.Mesh | None, levels: Iterable[int], project: bool = True) -> Iterator[ngs.Mesh]:
     """For each of ``levels`` (increasing), this rank's part of ``mesh`` (rank 0's; None on the others) refined
     that many times: the cells of ``refined(mesh, level, project)``, over the ranks. Rank 0 refines until the
@@ -97,6 +127,8 @@ def refined_parts(mesh: ngs.Mesh | None, levels: Iterable[int], project: bool = 
             part = _hand_out(mesh, at, project, geometry)
         for _ in range(level - at):
             part.Refine(adaptive=False)
+            if geometry is not None:
+                _agree(part)
         at = level
         yield ngs.Mesh(part)
 
