@@ -1,6 +1,7 @@
-"""The estimate before set-up (`fsivsp.estimate`): within a factor 1.5 of the measured peak memory on a 2D and a
-3D case, ``--dry-run`` (prints, writes nothing, exit 0), the one estimate line, and the refusals (memory over
-MemAvailable, output over the free space: one line, exit 2, nothing written; ``--force`` runs anyway)."""
+"""The estimate before set-up (`fsivsp.estimate`): the unknowns and cells of the refined mesh counted from the mesh
+before refinement, within a factor 1.5 of the measured peak memory on a 2D and a 3D case, ``--dry-run`` (prints,
+writes nothing, exit 0), the one estimate line, and the refusals (memory over MemAvailable, output over the free
+space: one line, exit 2, nothing written; ``--force`` runs anyway)."""
 import shutil
 import subprocess
 import sys
@@ -41,6 +42,29 @@ def test_memory_within_a_factor_1_5_of_the_peak(tmp_path, example, refine, discr
     assert 1 / 1.5 <= figures.memory / peak <= 1.5, (figures, peak)
 
 
+@pytest.mark.parametrize("example, refine, discretisation", [
+    ("pressure_wave_2d.toml", 2, 'family = "mini"'),                       # Dirichlet ends, traction walls
+    ("fluid_over_solid_2d.toml", 2, 'family = "taylor_hood"'),             # bubbles on locked corner cells
+    ("fluid_in_solid_2d.toml", 1, 'family = "taylor_hood"\norder = 3'),
+    ("fluid_over_solid_3d.toml", 2, 'family = "mini"'),                    # fluid and solid walls
+    ("solid_in_fluid_3d.toml", 2, 'family = "taylor_hood"\ncurved = false'),  # locked cells along the box's edges
+], ids=["tube-2d-mini", "box-2d-th1", "disk-2d-th3", "box-3d-mini", "ball-3d-th1"])
+def test_unknowns_and_cells_of_the_refined_mesh(tmp_path, example, refine, discretisation):
+    """Counted from the mesh before refinement (`estimate.Entities`), the refined mesh's cells and free unknowns,
+    exactly as its spaces have them."""
+    from fsivsp.config.boundaries import boundary_conditions, dirichlet
+    from fsivsp.fem.spaces import build_spaces
+
+    case = tmp_path / "case.toml"
+    case.write_text(case_text(example, refine, discretisation, 1))
+    figures = estimate.estimate(load_run_case(case, coarse=True))
+    built = load_run_case(case)
+    walls = dirichlet(boundary_conditions(built.boundaries, built.mesh, built.dim))
+    disc = built.discretisation
+    assert figures.cells == built.mesh.ne
+    assert figures.unknowns == build_spaces(built.mesh, disc.family, disc.order, walls, built.phases).free_dofs()
+
+
 def test_output_estimate_within_a_factor_2_of_the_files(tmp_path):
     out = tmp_path / "out"
     case = write_case(tmp_path)
@@ -54,9 +78,9 @@ def test_dry_run_prints_the_figures_and_writes_nothing(tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["run", str(write_case(tmp_path)), "--out", str(out), "--dry-run"]) == 0
     lines = capsys.readouterr().out.strip().splitlines()
-    assert [line.split(":")[0] for line in lines] == ["unknowns", "estimated memory", "estimated time per step",
-                                                      "estimated output"], lines
-    assert lines[0].startswith("unknowns: 1 799 (solver direct)") and not out.exists()
+    assert [line.split(":")[0] for line in lines] == ["unknowns", "cells", "estimated memory",
+                                                      "estimated time per step", "estimated output"], lines
+    assert lines[0] == "unknowns: 1 799 (solver direct)" and not out.exists()
 
 
 @pytest.fixture

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..config.frequency import load_harmonic_case, load_modes_case
-from ..config.production import load_run_case
+from ..config.production import load_run_case, refine_over_ranks
 from ..geometry import shared_case
 from ..runtime import parallel
 from ..runtime.logs import reporting, stage
@@ -29,17 +29,20 @@ def run(case: str | Path | dict, out: str | Path | None = None, *, overrides: di
     ``case`` for a dict) and return the summary (as in summary.json). ``overrides``: {"time.dt": 1e-4, ...} as
     ``--set``; ``threads``: default the case's [discretisation] threads, else `threads.default_threads`. Bad input
     raises `CaseError` (or `GeometryError`) with the one-line message of the command. Unless ``quiet``: the set-up
-    stages on stderr (`stages`) and a progress bar. Before set-up the estimate (`estimate.before_run`): ``dry_run``
-    prints it and returns None; a run it says does not fit raises `estimate.Refused` unless ``force``."""
+    stages on stderr (`stages`) and a progress bar. Before the mesh is refined (and under mpirun handed out) the
+    estimate (`estimate.before_run`): ``dry_run`` prints it and returns None; a run it says does not fit raises
+    `estimate.Refused` unless ``force``."""
     from .estimate import before_run, check_output_folder
 
     with reporting(not quiet):
         with stage("mesh"):
-            loaded = shared_case(load_run_case, case, overrides=overrides)
+            loaded = shared_case(load_run_case, case, overrides=overrides, coarse=True)
         out = Path(out) if out is not None else Path(loaded.path.stem)
         check_output_folder(out)
         if before_run(loaded, out, dry_run=dry_run, force=force, quiet=quiet):
             return None
+        with stage("refinement"):
+            loaded = refine_over_ranks(loaded)
         loaded = _with_threads(loaded, threads, "run")
         with using(loaded.solver.threads):
             return run_case(loaded, out, resume=resume, quiet=quiet)

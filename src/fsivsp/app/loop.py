@@ -94,7 +94,8 @@ def peak_memory() -> int:
 
 
 def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False) -> dict:
-    """Run the case into ``out``; returns the summary. Raises SolveDiverged on a non-finite step."""
+    """Run the case (its mesh refined: under mpirun this rank's part) into ``out``; returns the summary. Raises
+    SolveDiverged on a non-finite step."""
     import ngsolve as ngs
 
     from ..fem.spaces import global_count
@@ -118,6 +119,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
 
     if parallel.distributed():
         check_distributed(case)
+    mesh_peak = peak_memory()   # the mesh ready, before spaces and assembly
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     checkpoints = out / "checkpoints"
@@ -173,6 +175,10 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
                 surfaces.write_csv(out)
                 surface_plot(surfaces.columns, surfaces.rows, out / "surfaces.png")
         spaces, memory, vertices = scheme.spaces, parallel.gather(peak_memory()), ngs.H1(case.mesh, order=1)
+        ranks = {"size": len(memory), "peak_memory_bytes": memory, "mesh_peak_memory_bytes": parallel.gather(mesh_peak),
+                 "cells": parallel.gather(case.mesh.ne),
+                 "unknowns": parallel.gather(spaces.mixed.FreeDofs().NumSet()),   # shared ones on each rank
+                 "setup_seconds": parallel.gather(setup)}
         summary = {
             "case": str(case.path), "overrides": case.overrides, "status": status, "step": scheme.n,
             "time": scheme.time,
@@ -188,7 +194,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             "seconds": {"setup": setup, "solver_setup": scheme.solver.factor_seconds,
                         "total": clock.perf_counter() - started},
             "peak_memory_bytes": max(memory),
-            "ranks": {"size": len(memory), "peak_memory_bytes": memory},
+            "ranks": ranks,
             "threads": current_threads(),
             "resumed_from": resumed_from,
             "energy": history,

@@ -10,13 +10,14 @@ subdivision, continuous) and ``[checkpoint]`` (every).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from ..errors import CaseError, is_number, is_whole
-from ..geometry import Phases, geometry_phases, refined
+from ..geometry import Phases, geometry_phases, refined, refined_part
 from ..model.expressions import ExpressionError, parse_vector
+from ..runtime import parallel
 from .boundaries import check_boundaries, read_boundaries
 from .case import Case, build_mesh, read_case, read_region_materials
 from .overrides import case_document
@@ -33,8 +34,8 @@ MAX_REFINE = 6
 @dataclass(kw_only=True)
 class RunCase(Case):
     """A validated production case (``fsivsp run``): a `Case` without an exact solution, with d, its mesh (built
-    and refined at load) and the media of its cell regions (``phases``), data, boundaries (`boundaries`: each
-    (kind, value)), output and checkpoints."""
+    and refined at load, or ``refine`` refinements still to make: `refine_over_ranks`) and the media of its cell
+    regions (``phases``), data, boundaries (`boundaries`: each (kind, value)), output and checkpoints."""
 
     dim: int
     data: dict[str, list]
@@ -44,6 +45,7 @@ class RunCase(Case):
     mesh: Any = field(default=None, repr=False)
     overrides: dict[str, Any] = field(default_factory=dict)   # ``--set``: dotted key → value
     phases: Phases = field(default_factory=Phases)
+    refine: int = 0   #: uniform refinements of ``mesh`` still to make
 
 
 def _whole(table: dict, key: str, where: str, default: int) -> int:
@@ -111,19 +113,26 @@ def check_surfaces(names: list[str], mesh) -> None:
                             f"{', '.join(sorted(present))}")
 
 
-def refined_mesh(geometry: dict, dim: int, project: bool):
-    """The mesh of a validated ``[geometry]`` table, refined ``refine`` times (projected onto the geometry if
-    ``project``)."""
+def refine_count(geometry: dict) -> int:
+    """``[geometry] refine``, checked."""
     refine = geometry.get("refine", 0)
     if not is_whole(refine, 0, MAX_REFINE):
         raise CaseError(f"geometry.refine: expected a whole number from 0 to {MAX_REFINE}, got {refine!r}")
+    return refine
+
+
+def refined_mesh(geometry: dict, dim: int, project: bool):
+    """The mesh of a validated ``[geometry]`` table, refined ``refine`` times (projected onto the geometry if
+    ``project``)."""
+    refine = refine_count(geometry)
     mesh = build_mesh(geometry, dim, skip=("refine",))
     return refined(mesh, refine, project) if refine else mesh
 
 
-def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> RunCase:
+def load_run_case(source: str | Path | dict, overrides: dict | None = None, coarse: bool = False) -> RunCase:
     """Read and validate every field of a production case (a file or a dict, with the ``--set`` ``overrides``
-    {dotted key: value} applied first, `overrides`), including the mesh's boundary names."""
+    {dotted key: value} applied first, `overrides`), including the mesh's boundary names. ``coarse``: the mesh as
+    generated or read, its ``[geometry] refine`` left to `refine_over_ranks` (``fsivsp run`` estimates first)."""
     path, doc = case_document(source, overrides)
     check_command(doc, path, "run")
     check_keys(doc, RUN_SECTIONS, "")
@@ -136,11 +145,22 @@ def load_run_case(source: str | Path | dict, overrides: dict | None = None) -> R
     checkpoint_table = section(doc, "checkpoint", required=False)
     check_keys(checkpoint_table, CHECKPOINT_KEYS, "checkpoint")
     every = _whole(checkpoint_table, "every", "checkpoint", 50)
-    mesh = refined_mesh(fields["geometry"], dim, fields["discretisation"].project_refinement)
+    refine = refine_count(fields["geometry"])
+    mesh = build_mesh(fields["geometry"], dim, skip=("refine",))
     phases = geometry_phases(fields["geometry"]["kind"], mesh, fields["geometry"].get("regions"))
     fields["materials"] = read_region_materials(section(doc, "materials"), fields["materials"], phases, dim,
                                                 young_allowed=True, discretisation=fields["discretisation"])
     check_boundaries(boundaries, mesh, phases)
     check_surfaces(output["surfaces"], mesh)
+    if refine and not coarse:
+        mesh, refine = refined(mesh, refine, fields["discretisation"].project_refinement), 0
     return RunCase(coarse_mesh=None, exact=None, **fields, dim=dim, data=data, boundaries=boundaries, output=output,
-                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}), phases=phases)
+                   checkpoint_every=every, mesh=mesh, overrides=dict(overrides or {}), phases=phases, refine=refine)
+
+
+def refine_over_ranks(case: RunCase) -> RunCase:
+    """``case`` with its ``refine`` refinements made; under mpirun rank 0's mesh handed out and every rank's part
+    refined where it lives (`geometry.refined_part`; the case's mesh is then this rank's part)."""
+    if not case.refine and not parallel.distributed():
+        return case
+    return replace(case, mesh=refined_part(case.mesh, case.refine, case.discretisation.project_refinement), refine=0)

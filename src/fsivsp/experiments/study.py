@@ -19,10 +19,10 @@ from ..geometry import (
     SOLID_WALL,
     Phases,
     check_regions,
-    distribute,
     geometry_phases,
     pattern,
-    refined,
+    refined_part,
+    refined_parts,
     region_counts,
 )
 from ..geometry.curved import curve
@@ -144,11 +144,11 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
 
 
 def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dict:
-    """Run the scheme on one mesh; return the record of this level (errors, dofs, timings). Under mpirun
-    ``mesh`` is rank 0's whole mesh (None on the others), distributed here."""
+    """Run the scheme on one mesh (under mpirun this rank's part, `geometry.refined_parts`); return the record of
+    this level (errors, dofs, timings)."""
     start = clock.perf_counter()
-    counts, h = parallel.shared(lambda: (region_counts(mesh, case_phases(case, mesh)), max_edge_length(mesh)))
-    scheme, errors_at = discretise(case, distribute(mesh))
+    counts, h = region_counts(mesh, case_phases(case, mesh)), max_edge_length(mesh)
+    scheme, errors_at = discretise(case, mesh)
     spaces = scheme.spaces
     setup = clock.perf_counter() - start
     squares: dict[str, float] = {}
@@ -187,13 +187,15 @@ def run_level(case: Case, mesh: ngs.Mesh, level: int, quiet: bool = True) -> dic
 
 
 def max_edge_length(mesh: ngs.Mesh) -> float:
-    """h: the longest edge of an active cell (simplices). Not ``mesh.edges``: a netgen-refined mesh keeps
-    its parents' edges there, so h would stay the coarse mesh's."""
+    """h: the longest edge of an active cell (simplices; over all ranks of a distributed mesh). Not ``mesh.edges``:
+    a netgen-refined mesh keeps its parents' edges there, so h would stay the coarse mesh's."""
     ngmesh = mesh.ngmesh
     cells = (ngmesh.Elements2D() if mesh.dim == 2 else ngmesh.Elements3D()).NumPy()["nodes"][:, :mesh.dim + 1] - 1
+    if not len(cells):   # rank 0 of a distributed mesh
+        return mesh.comm.Max(0.0)
     points = np.asarray(ngmesh.Coordinates())[:, :mesh.dim][cells]          # cells × corners × dim
     i, j = np.triu_indices(mesh.dim + 1, 1)
-    return float(np.linalg.norm(points[:, i] - points[:, j], axis=-1).max())
+    return mesh.comm.Max(float(np.linalg.norm(points[:, i] - points[:, j], axis=-1).max()))
 
 
 def rates(records: list[dict], dim: int) -> None:
@@ -213,12 +215,12 @@ def rates(records: list[dict], dim: int) -> None:
 
 
 def study(case: Case, levels: range, quiet: bool = True) -> list[dict]:
-    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh (made on rank 0 under
-    mpirun, and distributed level by level)."""
+    """The convergence study: uniform refinements ``levels`` of the case's coarse mesh (under mpirun made on rank 0
+    and distributed once, then refined where the cells live: `geometry.refined_parts`)."""
     coarse = parallel.on_root(case.coarse_mesh)
+    meshes = refined_parts(coarse, levels, case.discretisation.project_refinement)
     records = []
-    for level in tqdm(levels, desc=case.name, disable=quiet, unit="level"):
-        mesh = parallel.on_root(refined, coarse, level, case.discretisation.project_refinement)
+    for level, mesh in zip(tqdm(levels, desc=case.name, disable=quiet, unit="level"), meshes):
         records.append(run_level(case, mesh, level, quiet))
     rates(records, parallel.shared(lambda: coarse.dim))
     return records
@@ -249,9 +251,10 @@ def check_time_steps(steps: list[float]) -> list[float]:
 
 
 def time_study(case: Case, level: int, steps: list[float], quiet: bool = True) -> list[dict]:
-    """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing)."""
+    """The convergence study in time: the case on refinement ``level`` with each Δt of ``steps`` (decreasing), on
+    one mesh (under mpirun each rank's part, `geometry.refined_part`)."""
     check_time_steps(steps)
-    mesh = refined(case.coarse_mesh(), level, project=case.discretisation.project_refinement)
+    mesh = refined_part(parallel.on_root(case.coarse_mesh), level, case.discretisation.project_refinement)
     records = []
     for dt in tqdm(steps, desc=case.name, disable=quiet, unit="dt"):
         record = run_level(replace(case, dt=dt), mesh, level, quiet)

@@ -26,10 +26,11 @@ interface normal), `refine`
 (geometry-free meshes, red refinement), `params` (checks of the ``[geometry]`` values), `shapes`
 (the built-in shapes), `mesh_files` (gmsh and netgen files), `cad_files` (STEP, BREP, IGES) and
 `registry` (``KINDS``, ``build_geometry``), `curved` (curved cells: onto the geometry, a mesh file's
-second-order cells), `export` (a mesh as a gmsh file) and `distribute` (a mesh over MPI ranks).
+second-order cells), `export` (a mesh as a gmsh file) and `distribute` (a mesh over MPI ranks, refined where its
+cells live).
 """
 from .cad_files import cad
-from .distribute import distribute, shared_case
+from .distribute import distribute, refined_part, refined_parts, shared_case
 from .mesh_files import GMSH_CELLS, MID_EDGES, load_mesh
 from .params import CAD_SUFFIXES, MESH_SUFFIXES
 from .refine import netgen_mesh, refined, without_geometry
@@ -55,6 +56,7 @@ from .regions import (
     mesh_phases,
     pattern,
     region_counts,
+    vertex_count,
 )
 from .registry import KINDS, build_geometry, geometry_phases
 from .shapes import (
@@ -73,10 +75,11 @@ from .shapes import (
 __all__ = [
     "extent", "FLUID", "SOLID", "INTERFACE", "FLUID_WALL", "SOLID_WALL", "INFLOW", "OUTFLOW", "SOLID_ENDS", "PERIODIC",
     "GeometryError", "Phases", "adjacent_regions", "mesh_phases", "pattern", "geometry_phases",
-    "check_regions", "is_periodic", "check_distributable", "region_counts", "interface_normal", "locked_fluid_cells",
+    "check_regions", "is_periodic", "check_distributable", "region_counts", "vertex_count", "interface_normal",
+    "locked_fluid_cells",
     "netgen_mesh", "without_geometry", "refined",
     "CHANNEL_WIDTH", "CHANNEL_HEIGHT", "DISK_CENTRE", "DISK_RADIUS", "DEFAULT_MAXH",
     "paper_channel", "fluid_in_solid", "solid_in_fluid", "fluid_over_solid", "elastic_tube",
     "MESH_SUFFIXES", "CAD_SUFFIXES", "GMSH_CELLS", "MID_EDGES", "load_mesh", "cad",
-    "KINDS", "build_geometry", "distribute", "shared_case",
+    "KINDS", "build_geometry", "distribute", "refined_part", "refined_parts", "shared_case",
 ]

@@ -10,6 +10,17 @@ import numpy as np
 from . import curved as quadratic
 from .regions import GeometryError
 
+#: netgen's uniform red refinement (``Refinement::Refine``) of a triangle (2) and a tetrahedron (3) in terms of a
+#: cell's corners in its vertex order (a "reversed" tetrahedron's 3rd and 4th corners swapped first): the new
+#: points (a corner, or the midpoint of two), each child's corners among them, and which children are reversed.
+RED = {
+    2: (((0,), (1,), (2,), (1, 2), (0, 2), (0, 1)), ((0, 5, 4), (1, 3, 5), (2, 4, 3), (5, 3, 4)), (False,) * 4),
+    3: (((0,), (1,), (2,), (3,), (0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)),
+        ((0, 4, 5, 6), (4, 1, 7, 8), (5, 7, 2, 9), (6, 8, 9, 3),
+         (4, 5, 6, 8), (4, 5, 8, 7), (5, 6, 8, 9), (5, 7, 9, 8)),
+        (False, False, False, False, False, True, False, True)),
+}
+
 
 def without_geometry(mesh: ngs.Mesh) -> ngs.Mesh:
     """A copy of a 2D or 3D mesh that has forgotten its geometry, so that refinement puts the new

@@ -139,21 +139,38 @@ def check_distributable(mesh: ngs.Mesh) -> None:
 
 
 def region_counts(mesh: ngs.Mesh, phases: Phases = Phases()) -> dict[str, int]:
-    """Vertices, cells and boundary vertices per region (for reports and the paper's dof count)."""
-    def vertices(elements, names):
-        return {v.nr for el in elements if el.mat in names for v in el.vertices}
+    """Vertices, cells and boundary vertices per region (for reports and the paper's dof count); on a distributed
+    mesh (MPI) over all ranks, a vertex shared by ranks counted once."""
+    def vertices(elements, *names):
+        marked = np.zeros(mesh.nv, dtype=bool)
+        marked[[v.nr for el in elements if el.mat in names for v in el.vertices]] = True
+        return marked
 
     cells = list(mesh.Elements(ngs.VOL))
     boundary = list(mesh.Elements(ngs.BND))
-    outer = vertices(boundary, (FLUID_WALL,)) | vertices(boundary, (SOLID_WALL,))
+    every = np.ones(mesh.nv, dtype=bool)
     return {
-        "vertices": mesh.nv,
-        "cells": mesh.ne,
-        "fluid_cells": sum(1 for el in cells if el.mat in phases.fluid),
-        "fluid_vertices": len(vertices(cells, phases.fluid)),
-        "boundary_vertices": len(outer),
-        "interface_vertices": len(vertices(boundary, (INTERFACE,))),
+        "vertices": vertex_count(mesh, every),
+        "cells": round(mesh.comm.Sum(mesh.ne)),
+        "fluid_cells": round(mesh.comm.Sum(sum(1 for el in cells if el.mat in phases.fluid))),
+        "fluid_vertices": vertex_count(mesh, vertices(cells, *phases.fluid)),
+        "boundary_vertices": vertex_count(mesh, vertices(boundary, FLUID_WALL, SOLID_WALL)),
+        "interface_vertices": vertex_count(mesh, vertices(boundary, INTERFACE)),
     }
+
+
+def vertex_count(mesh: ngs.Mesh, marked: np.ndarray) -> int:
+    """How many vertices ``marked`` (one flag per vertex of this rank's part) marks; on a distributed mesh those
+    marked on some rank, each once."""
+    if mesh.comm.size == 1:
+        return int(np.count_nonzero(marked))
+    space = ngs.H1(mesh, order=1)   # one dof per vertex, in the vertices' order
+    field = ngs.GridFunction(space)
+    values = field.vec.FV().NumPy()
+    values[:] = marked
+    field.vec.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
+    field.vec.Cumulate()
+    return round(mesh.comm.Sum((ngs.BitArray(values > 0) & space.ParallelDofs().MasterDofs()).NumSet()))
 
 
 def interface_normal(mesh: ngs.Mesh, phases: Phases = Phases()) -> ngs.CoefficientFunction:

@@ -31,6 +31,10 @@ class WriteError(OSError):
     def __str__(self) -> str:
         return f"cannot write {self.path}: {self.reason}"
 
+    def __reduce__(self):
+        """Pickled as its path and reason (a rank's error is raised on every rank, `parallel.together`)."""
+        return WriteError, (self.path, OSError(self.errno, self.reason))
+
 
 def _temporary(path: Path) -> Path:
     """A new empty file next to ``path``, created with the umask's modes (mkstemp would give 0600)."""

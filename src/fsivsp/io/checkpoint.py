@@ -7,9 +7,12 @@ fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, th
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
 uninterrupted one bit for bit.
 
-Under mpirun rank 0 gathers every rank's local vectors (cumulated) and fingerprint into the one file
-(``state.rank1``, …; the fingerprint lists the ranks), and scatters them back on loading; a checkpoint
-resumes only with the number of ranks that wrote it (the mesh's partition is part of the vectors' meaning).
+Under mpirun every rank writes its own part, ``checkpoint_{step}.parts/rank{r}.npz`` (its local vectors,
+cumulated, and its fingerprint), and only then rank 0 writes the ``.npz`` file itself, the manifest: step, time,
+``extra``, the number of ranks and a token its parts carry; each file atomically (`atomic`), so a checkpoint is
+complete when its manifest exists. No rank gathers another's vectors. A checkpoint resumes only with the number of
+ranks that wrote it: each part belongs to its rank's piece of the mesh (docs/mpi.md says what another number would
+need).
 
     save_checkpoint(checkpoint_path(out, scheme.n), scheme, {"probes": probes.state()})
     ...
@@ -22,6 +25,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import secrets
+import shutil
 import zipfile
 from pathlib import Path
 
@@ -87,54 +92,57 @@ def _vectors(scheme) -> dict[str, np.ndarray]:
     return {name: vector if isinstance(vector, np.ndarray) else vector.FV().NumPy() for name, vector in vectors.items()}
 
 
-def _key(name: str, rank: int, ranks: int) -> str:
-    return name if ranks == 1 else f"{name}.rank{rank}"
+def parts_folder(path: Path) -> Path:
+    """The folder of the ranks' parts of the checkpoint ``path`` (its manifest): ``checkpoint_{step}.parts``."""
+    return path.with_suffix(".parts")
 
 
-def _combined(prints: list[dict]) -> dict:
-    """The fingerprint of a run on ``len(prints)`` ranks (one rank: its own)."""
-    return prints[0] if len(prints) == 1 else {"ranks": len(prints), "parts": prints}
+def part_path(path: Path, rank: int) -> Path:
+    return parts_folder(path) / f"rank{rank:05d}.npz"
 
 
 def save_checkpoint(path: str | Path, scheme, extra: dict | None = None) -> Path:
     """Store the scheme's step, time and vectors with ``extra`` (JSON-serialisable; rank 0's under MPI).
 
-    The file is written to a temporary file in the same directory, synced, and renamed
-    over ``path``: an existing checkpoint is replaced only by a complete one.
+    Every file is written to a temporary file in the same directory, synced, and renamed
+    over its name: an existing checkpoint is replaced only by a complete one (under MPI: the manifest, after every
+    rank's part; a rank that cannot write its part raises the error on every rank).
     """
     path = Path(path)
     extra_json = json.dumps(extra or {})  # fails (TypeError) before anything is written
     vectors = {name: np.array(values, dtype=np.float64) for name, values in _vectors(scheme).items()}
-    parts = parallel.gather_on_root((vectors, fingerprint(scheme)))
-    parallel.shared(_write, path, parts, scheme.n, scheme.time, extra_json)
+    header = {"format": np.array(FORMAT, dtype=np.int64), "step": np.array(int(scheme.n), dtype=np.int64),
+              "time": np.array(float(scheme.time), dtype=np.float64)}
+    if not parallel.distributed():
+        _write(path, {**vectors, **header, "fingerprint": _json(fingerprint(scheme)),
+                      "extra": np.frombuffer(extra_json.encode(), dtype=np.uint8)})  # UTF-8 bytes, not 4-byte chars
+        return path
+    token = parallel.shared(secrets.token_hex, 8)
+    parallel.together(_write, part_path(path, parallel.rank()),
+                      {**vectors, **header, "fingerprint": _json(fingerprint(scheme)), "token": np.array(token)})
+    parallel.shared(_write, path, {**header, "ranks": np.array(parallel.size(), dtype=np.int64),
+                                   "token": np.array(token), "extra": np.frombuffer(extra_json.encode(), np.uint8)})
     return path
 
 
-def _write(path: Path, parts: list[tuple[dict, dict]], step: int, time: float, extra_json: str) -> None:
-    arrays = {_key(name, rank, len(parts)): values for rank, (vectors, _) in enumerate(parts)
-              for name, values in vectors.items()}
-    arrays.update(
-        format=np.array(FORMAT, dtype=np.int64),
-        step=np.array(int(step), dtype=np.int64),
-        time=np.array(float(time), dtype=np.float64),
-        fingerprint=np.array(json.dumps(_combined([prints for _, prints in parts]), sort_keys=True)),
-        extra=np.frombuffer(extra_json.encode(), dtype=np.uint8),  # UTF-8 bytes, not 4-byte characters
-    )
+def _json(value: dict) -> np.ndarray:
+    return np.array(json.dumps(value, sort_keys=True))
+
+
+def _write(path: Path, arrays: dict[str, np.ndarray]) -> None:
     with atomic.replacing(path) as tmp, open(tmp, "wb") as handle:
         np.savez_compressed(handle, **arrays)
 
 
-def _read(path: Path) -> dict:
+def _read(path: Path, required: set[str]) -> dict:
     try:
         with np.load(path, allow_pickle=False) as data:
             contents = {name: data[name] for name in data.files}
     except FileNotFoundError:
-        raise
+        raise CheckpointError(f"checkpoint {path}: missing") from None
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
         raise CheckpointError(f"checkpoint {path}: not a readable checkpoint ({exc})") from None
-    missing = {"format", "step", "time", "fingerprint", "extra"} - contents.keys()
-    if missing or not any(name.split(".")[0] == "state" for name in contents):
-        missing |= {"state"}
+    if missing := required - contents.keys():
         raise CheckpointError(f"checkpoint {path}: not a fsivsp checkpoint (missing {', '.join(sorted(missing))})")
     return contents
 
@@ -153,61 +161,75 @@ def _mismatches(saved: dict, current: dict, prefix: str = "") -> list[str]:
 def load_checkpoint(path: str | Path, scheme) -> dict:
     """Restore step, time and vectors into ``scheme`` exactly; return the saved ``extra``.
 
-    Raises `CheckpointError` (on every rank) if the file is unreadable or was written for another
-    discretisation (different mesh, spaces, Δt, materials or number of ranks).
+    Raises `CheckpointError` (on every rank) if a file is unreadable or was written for another
+    discretisation (different mesh, spaces, Δt, materials or number of ranks); the scheme is then unchanged.
     """
     path = Path(path)
     targets = _vectors(scheme)
-    current = parallel.gather_on_root((fingerprint(scheme), {name: target.shape for name, target in targets.items()}))
-    loaded = parallel.on_root(_read_matching, path, current)
-    for name, values in parallel.scatter(loaded[0] if loaded else None).items():
+    step, time, extra, token = parallel.shared(_read_manifest, path, parallel.size())
+    part = path if token is None else part_path(path, parallel.rank())
+    vectors = parallel.together(_read_part, part, fingerprint(scheme), targets, token)
+    for name, values in vectors.items():
         targets[name][:] = values
-    step, time, extra = parallel.shared(lambda: loaded[1])
     scheme.time, scheme.n = time, step
     return extra
 
 
-def _read_matching(path: Path, current: list[tuple[dict, dict]]) -> tuple[list[dict], tuple[int, float, dict]]:
-    """Each rank's vectors of the checkpoint at ``path`` and its (step, time, extra), if it matches the run whose
-    ranks have the (fingerprint, vector shapes) ``current``."""
-    contents = _read(path)
-    saved = json.loads(str(contents["fingerprint"]))
-    ranks = saved.get("ranks", 1) if "parts" in saved else 1
-    if ranks != len(current):
-        how = f"with mpirun -np {ranks}" if ranks > 1 else "without mpirun"
-        raise CheckpointError(f"checkpoint {path}: written by {ranks} rank{'s' * (ranks > 1)}, this run has "
-                              f"{len(current)}; resume {how}")
-    problems = _mismatches(saved, _combined([prints for prints, _ in current]))
+def _read_manifest(path: Path, ranks: int) -> tuple[int, float, dict, str | None]:
+    """Step, time and ``extra`` of the checkpoint ``path`` and the token of its parts (None: a serial checkpoint,
+    its vectors in the file itself), if it was written by ``ranks`` ranks."""
+    contents = _read(path, {"format", "step", "time", "extra"})
+    written = int(contents["ranks"]) if "ranks" in contents else 1
+    if written != ranks:
+        how = f"with mpirun -np {written}" if written > 1 else "without mpirun"
+        raise CheckpointError(f"checkpoint {path}: written by {written} rank{'s' * (written > 1)}, this run has "
+                              f"{ranks}; resume {how}")
+    token = str(contents["token"]) if "token" in contents else None
+    return (int(contents["step"]), float(contents["time"]), json.loads(contents["extra"].tobytes().decode()),
+            token)
+
+
+def _read_part(path: Path, current: dict, targets: dict[str, np.ndarray], token: str | None) -> dict:
+    """The vectors of the checkpoint file ``path`` (a serial checkpoint, or this rank's part carrying ``token``),
+    if its fingerprint is ``current`` and its vectors have the shapes of ``targets``."""
+    contents = _read(path, {"fingerprint", "state"})
+    if token is not None and str(contents.get("token")) != token:
+        raise CheckpointError(f"checkpoint {path}: belongs to another checkpoint than its manifest "
+                              f"{path.parent.with_suffix('.npz')}")
+    problems = _mismatches(json.loads(str(contents["fingerprint"])), current)
     if problems:
         raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
-    vectors = []
-    for rank, (_, shapes) in enumerate(current):
-        mine = {}
-        for name, shape in shapes.items():
-            values = contents.get(_key(name, rank, ranks))
-            if values is None or values.shape != shape:
-                raise CheckpointError(f"checkpoint {path}: {_key(name, rank, ranks)} has shape "
-                                      f"{None if values is None else values.shape}, expected {shape}")
-            mine[name] = values
-        vectors.append(mine)
-    return vectors, (int(contents["step"]), float(contents["time"]), json.loads(contents["extra"].tobytes().decode()))
+    for name, target in targets.items():
+        values = contents.get(name)
+        if values is None or values.shape != target.shape:
+            raise CheckpointError(f"checkpoint {path}: {name} has shape {None if values is None else values.shape}, "
+                                  f"expected {target.shape}")
+    return {name: contents[name] for name in targets}
+
+
+def _step(path: Path) -> int:
+    digits = path.name.split(".")[0].rsplit("_", 1)[-1]
+    return int(digits) if digits.isdigit() else -1
 
 
 def prune_checkpoints(directory: str | Path, keep: int = 2) -> None:
-    """Delete all but the ``keep`` newest checkpoints (by step) in ``directory``."""
-    def step(path: Path) -> int:
-        digits = path.stem.rsplit("_", 1)[-1]
-        return int(digits) if digits.isdigit() else -1
-
-    found = sorted(Path(directory).glob(f"{PREFIX}_*.npz"), key=step)
-    for old in found[:-keep] if keep > 0 else found:
-        old.unlink(missing_ok=True)
+    """Delete all but the ``keep`` newest checkpoints (by step) in ``directory``, each manifest before its parts,
+    and the parts of older steps left without a manifest (a run stopped while writing them)."""
+    directory = Path(directory)
+    found = sorted(directory.glob(f"{PREFIX}_*.npz"), key=_step)
+    old = found[:-keep] if keep > 0 else found
+    for manifest in old:
+        manifest.unlink(missing_ok=True)
+    oldest = _step(found[max(len(found) - keep, 0)]) if found and keep > 0 else float("inf")
+    for parts in directory.glob(f"{PREFIX}_*.parts"):
+        if _step(parts) < oldest or parts.with_suffix(".npz") in old:
+            shutil.rmtree(parts, ignore_errors=True)
 
 
 def latest_checkpoint(directory: str | Path, report=None) -> Path | None:
     """The readable ``checkpoint*.npz`` in ``directory`` with the highest step (the newest
-    file among equal steps), or None. Temporary and unreadable files are skipped; ``report(path, reason)`` is
-    told of each unreadable one."""
+    file among equal steps), or None. Temporary and unreadable files are skipped, and manifests whose ranks' parts
+    are missing; ``report(path, reason)`` is told of each one."""
     directory = Path(directory)
     if not directory.is_dir():
         return None
@@ -218,6 +240,9 @@ def latest_checkpoint(directory: str | Path, report=None) -> Path | None:
         try:
             with np.load(path, allow_pickle=False) as data:
                 step = int(data["step"])
+                ranks = int(data["ranks"]) if "ranks" in data.files else 0
+            if missing := [rank for rank in range(ranks) if not part_path(path, rank).is_file()]:
+                raise CheckpointError(f"the parts of ranks {', '.join(map(str, missing))} are missing")
         except Exception as error:  # a damaged or foreign file is no candidate
             if report is not None:
                 report(path, error)

@@ -1,10 +1,10 @@
 """MPI-distributed runs (``mpirun -np N fsivsp ...``): which rank this is, what rank 0 alone does, and
 how a case and its mesh reach every rank.
 
-Rank 0 reads the case and meshes; `distribute` hands every rank its part of the mesh (netgen's
-``Distribute``/``Receive``; NGSolve keeps rank 0 free of cells, so N ranks assemble on N − 1 parts), and each
-rank assembles and solves its part (NGSolve's ``ParallelMatrix``/``ParallelVector``). Without ``mpirun``, or
-with one rank, MPI is never imported and every helper here is the serial identity.
+Rank 0 reads the case and meshes; `geometry.distribute` hands every rank its part of the mesh, which it refines
+(NGSolve keeps rank 0 free of cells, so N ranks assemble on N − 1 parts), and each rank assembles and solves its
+part (NGSolve's ``ParallelMatrix``/``ParallelVector``). Without ``mpirun``, or with one rank, MPI is never
+imported and every helper here is the serial identity.
 """
 from __future__ import annotations
 
@@ -111,6 +111,39 @@ def shared(build: Callable[..., T], *args) -> T:
     if error is not None:
         raise error
     return result
+
+
+def together(work: Callable[..., T], *args) -> T:
+    """``work(*args)`` on every rank (each its own part: a file, a check); if it raises on any rank, the lowest
+    such rank's exception is raised on every rank, so that all take the same exit. Serial: ``work(*args)``."""
+    comm = world()
+    if comm is None:
+        return work(*args)
+    result = error = None
+    try:
+        result = work(*args)
+    except Exception as caught:  # re-raised on every rank just below
+        error = caught
+    first = next((e for e in comm.allgather(error) if e is not None), None)
+    if first is not None:
+        raise first
+    return result
+
+
+def per_node(measure: Callable[[], T]) -> list[tuple[int, T]]:
+    """(its number of ranks, ``measure()`` on its first rank) for every node, the ranks grouped by the memory they
+    share (``MPI.COMM_TYPE_SHARED``), in the order of their first ranks, on every rank. Serial: one node."""
+    comm = world()
+    if comm is None:
+        return [(1, measure())]
+    from mpi4py import MPI
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        mine = (node.size, measure()) if node.rank == 0 else None
+    finally:
+        node.Free()
+    return [item for item in comm.allgather(mine) if item is not None]
 
 
 def owners(found):

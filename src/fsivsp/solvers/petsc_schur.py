@@ -66,7 +66,7 @@ def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> S
     if solver.options["schur_approximation"] == "lsc":
         diagonal = a.getDiagonal()
         laplacian, y = _laplacian(PETSc, c, diagonal)
-        middle = a.ptap(y)
+        middle = _galerkin(PETSc, a, y)
         if spaces.family == "mini" or spaces.order == 1:
             _correct(solver, middle, a, c, y, spaces)
         weight = None
@@ -93,6 +93,13 @@ def _laplacian(PETSc, c, diagonal):
     return c.matMult(y), y
 
 
+def _galerkin(PETSc, a, y):
+    """Yᵀ A Y as Yᵀ (A Y), Yᵀ made explicitly: each rank forms its rows' entries alone, in one order, so that runs
+    on the same ranks round alike. PETSc's ``ptap`` sums the ranks' contributions to a row in the order they arrive
+    (3 ranks: 1 run in 3 differed from the others at round-off, so a resumed run was not the uninterrupted one)."""
+    return y.transpose(PETSc.Mat()).matMult(a.matMult(y))
+
+
 def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
     """The corrected commutator (the module's docstring): the higher dofs' term Y_hᵀ A Y_h of the
     middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
@@ -109,7 +116,7 @@ def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
     values[:] = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), 0.0)
     scaled = f_h.copy()
     scaled.diagonalScale(L=scale)
-    middle.axpy(-1.0, a.ptap(y_h), structure=structure)
+    middle.axpy(-1.0, _galerkin(solver.PETSc, a, y_h), structure=structure)
     middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
 
 
