@@ -59,8 +59,8 @@ def test_bad_harmonic_input_is_one_line_and_exit_2(tmp_path, capsys, old, new, m
 @pytest.mark.parametrize("text, message", [
     (HARMONIC.replace("[harmonic]", "[time]\nT = 1.0\ndt = 0.1\n\n[harmonic]"),
      "a case for `fsivsp harmonic` (it has a [harmonic] section); use `fsivsp harmonic"),
-    (LID + "\n[time]\nT = 1.0\ndt = 0.1\n", "boundary.fluid_wall.phase: unknown key; expected one of traction, "
-                                            "velocity"),
+    (LID + "\n[time]\nT = 1.0\ndt = 0.1\n", "boundary.fluid_wall.phase: unknown key; expected one of "
+                                            "distal_pressure, flow"),
 ], ids=["harmonic-section", "phase"])
 def test_run_refuses_the_frequency_domain_keys(tmp_path, capsys, text, message):
     case = write(tmp_path, text)

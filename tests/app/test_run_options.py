@@ -152,8 +152,8 @@ def test_set_up_stages_on_stderr_unless_quiet(tmp_path, capsys):
     assert main(["run", str(case), "--out", str(tmp_path / "out")]) == 0
     lines = [line for line in capsys.readouterr().err.splitlines() if line.startswith("set-up:")]
     stages = [re.fullmatch(r"set-up: (.+) \d+\.\d\d s", line).group(1) for line in lines]
-    assert stages[:3] == ["mesh", "spaces", "assembly"] and stages[4:] == ["initial data"]
-    assert re.fullmatch(r"(factorisation|preconditioner) \(\w+\)", stages[3])
+    assert stages[:4] == ["mesh", "refinement", "spaces", "assembly"] and stages[5:] == ["initial data"]
+    assert re.fullmatch(r"(factorisation|preconditioner) \(\w+\)", stages[4])
     assert run(case, tmp_path / "quiet") == 0
     assert "set-up" not in capsys.readouterr().err
 
@@ -264,6 +264,6 @@ def test_set_and_stages_on_two_ranks(tmp_path):
     done = mpirun("run", str(case), "--out", str(tmp_path / "out"), "--set", "time.T=1e-4")
     assert done.returncode == 0, done.stderr
     stages = [line.split()[1] for line in done.stderr.splitlines() if line.startswith("set-up:")]
-    assert stages == ["mesh", "spaces", "assembly", "preconditioner", "initial"]
+    assert stages == ["mesh", "refinement", "spaces", "assembly", "preconditioner", "initial"]
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["step"] == 2 and summary["overrides"] == {"time.T": 1e-4}

@@ -13,7 +13,7 @@ from typing import Any
 
 from ..config.frequency import load_harmonic_case, load_modes_case
 from ..config.production import load_run_case, refine_over_ranks
-from ..geometry import shared_case
+from ..geometry import distribute, shared_case
 from ..runtime import parallel
 from ..runtime.logs import reporting, stage
 from ..runtime.threads import using
@@ -92,6 +92,7 @@ def modes(case: str | Path | dict, out: str | Path | None = None, *, count: int 
     with reporting(not quiet):
         with stage("mesh"):
             loaded = shared_case(load_modes_case, case, overrides={**(overrides or {}), **given})
+            loaded = replace(loaded, mesh=distribute(loaded.mesh))   # under mpirun: this rank's part
         out = Path(out) if out is not None else Path(loaded.path.stem)
         check_output_folder(out, "modes")
         loaded = _with_threads(loaded, threads, "modes")
