@@ -45,8 +45,12 @@ def write(tmp_path, text: str):
     ("[boundary.fluid_wall]", "[boundary.nowhere]", "boundary.nowhere: no boundary of that name in the mesh"),
     ('family = "mini"', 'family = "mini"\nsolver = "petsc"', "discretisation.solver: expected one of auto, direct, "
      "pardiso, umfpack for `fsivsp harmonic` (a factorisation of a complex matrix), got 'petsc'"),
+    ("[output]", '[boundary.solid_wall]\nflow = "1"\n\n[output]', "boundary.solid_wall.flow: `fsivsp harmonic` takes "
+     "velocity, traction, resistance, windkessel or support on a boundary"),
+    ("[output]", "[boundary.solid_wall]\nresistance = 2.0\ndistal_pressure = 1.0\n\n[output]",
+     "boundary.solid_wall.distal_pressure: expected 0 in `fsivsp harmonic` (a constant pressure does not oscillate"),
 ], ids=["t-in-boundary", "t-in-force", "phase", "negative", "twice", "empty", "range", "spacing", "count",
-        "misspelt", "no-section", "study-case", "boundary-name", "iterative-solver"])
+        "misspelt", "no-section", "study-case", "boundary-name", "iterative-solver", "flow-rate", "distal-pressure"])
 def test_bad_harmonic_input_is_one_line_and_exit_2(tmp_path, capsys, old, new, message):
     assert old in HARMONIC
     case = write(tmp_path, HARMONIC.replace(old, new))
@@ -109,6 +113,8 @@ def test_ctrl_c_stops_after_the_current_frequency(tmp_path, capsys, monkeypatch)
     ({"modes.count": 0}, "modes.count: expected a positive whole number, got 0"),
     ({"modes.near": -1}, "modes.near: expected a frequency >= 0, got -1"),
     ({"modes.nearest": 1}, "modes.nearest: unknown key (did you mean 'near'?)"),
+    ({"boundary.solid_wall.support": {"stiffness": 1.0}},
+     "boundary.solid_wall.support: `fsivsp modes` takes velocity or traction on a boundary"),
 ])
 def test_bad_modes_input(changes, message):
     """`fsivsp modes` reads its case before PETSc is set up (its checks do not need the complex build)."""

@@ -39,17 +39,17 @@ class Stopped(Terminated):
 
 def case_spaces(case: FrequencyCase, complex: bool):
     """The spaces of a frequency-domain case (the cells curved if it says so), Dirichlet where a boundary has a
-    velocity; and the velocity and traction data per boundary (`boundaries.boundary_conditions`)."""
+    velocity; and the boundary conditions as `Data` fields (`boundaries.boundary_conditions`)."""
     from ..fem.spaces import base_order, build_spaces
 
     conditions = boundary_conditions(case.boundaries, case.mesh, case.dim)
-    velocity, traction = conditions["boundary_velocity"], conditions["boundary_traction"]
+    velocity = conditions["boundary_velocity"]
     disc = case.discretisation
     with stage("spaces"):
         if disc.curved:
             curve(case.mesh, base_order(disc.family, disc.order))
         spaces = build_spaces(case.mesh, disc.family, disc.order, "|".join(velocity), complex=complex)
-    return spaces, velocity, traction
+    return spaces, conditions
 
 
 def summary_head(case: FrequencyCase, spaces, status: str) -> dict:
@@ -108,11 +108,21 @@ class ComplexFields:
         self.series.write(time, step)
 
 
+def harmonic_data(case: HarmonicCase, conditions: dict[str, dict]):
+    """The `frequency.harmonic.HarmonicData` of a harmonic case with its boundary ``conditions`` (`case_spaces`)."""
+    from ..frequency.harmonic import HarmonicData
+
+    return HarmonicData(case.dim, boundary_velocity=conditions["boundary_velocity"],
+                        boundary_traction=conditions["boundary_traction"], phase=case.phases,
+                        outlets=conditions["outlets"], supports=conditions["supports"],
+                        **{key: Field(value) for key, value in case.data.items()})
+
+
 def run_harmonic(case: HarmonicCase, out: Path, quiet: bool = False) -> dict:
     """The harmonic response at each of the case's frequencies (`frequency.harmonic.respond`) into ``out``:
     harmonic.csv and harmonic.png (with probes), vtk/harmonic.pvd (one VTU per frequency, its "time" the
     frequency), summary.json. Returns the summary."""
-    from ..frequency.harmonic import Amplitudes, HarmonicData, respond
+    from ..frequency.harmonic import Amplitudes, respond
     from ..io import Probes, write_summary
     from ..io.frequency import harmonic_plot, write_harmonic_csv
     from ..runtime.progress import tqdm
@@ -120,12 +130,10 @@ def run_harmonic(case: HarmonicCase, out: Path, quiet: bool = False) -> dict:
 
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
-    spaces, velocity, traction = case_spaces(case, complex=True)
+    spaces, conditions = case_spaces(case, complex=True)
     fit(spaces.free_dofs())
     with stage("loads"):
-        data = HarmonicData(case.dim, boundary_velocity=velocity, boundary_traction=traction, phase=case.phases,
-                            **{key: Field(value) for key, value in case.data.items()})
-        amplitudes = Amplitudes(spaces, data)
+        amplitudes = Amplitudes(spaces, harmonic_data(case, conditions))
     probes = Probes(case.mesh, points=case.output["probes"])
     output = ComplexFields(spaces, case, "harmonic", out) if case.output["vtk"] else None
     method = None if case.solver.method in ("auto", "direct") else case.solver.method
@@ -174,7 +182,7 @@ def run_modes(case: ModesCase, out: Path, quiet: bool = False) -> dict:
 
     started = clock.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
-    spaces, *_ = case_spaces(case, complex=False)
+    spaces, _ = case_spaces(case, complex=False)
     fit(2 * spaces.free_dofs())
     with Interrupt() as interrupt, tqdm(total=case.count + 4, disable=quiet or not parallel.is_root(),
                                          unit="pair", desc=case.name) as bar:

@@ -36,8 +36,10 @@ MAX_FREQUENCIES = 10_000
 #: ``[modes]``: how many oscillating modes, nearest which frequency (default: the lowest).
 MODES_KEYS = {"count", "near"}
 DEFAULT_COUNT = 6
-#: The ``[boundary.NAME]`` conditions of the frequency domain.
-FREQUENCY_KINDS = ("velocity", "traction")
+#: The ``[boundary.NAME]`` conditions of each frequency-domain command (`fsivsp run`'s flow-rate inflow is a
+#: time-domain condition; the modes are those of the linear pencil, which an outlet's Z(s) would make rational).
+FREQUENCY_KINDS = {"harmonic": ("velocity", "traction", "resistance", "windkessel", "support"),
+                   "modes": ("velocity", "traction")}
 #: ``[boundary.NAME] phase`` (harmonic only).
 PHASE = "phase"
 #: What each command reads of a run case's sections and keys; the others are named in a warning.
@@ -183,13 +185,18 @@ def _boundaries(table: dict, dim: int, command: str) -> tuple[dict[str, tuple[st
             spec = {key: value for key, value in spec.items() if key != PHASE}
         plain[name] = spec
     boundaries = read_boundaries(plain, dim)
-    for name, (kind, _) in boundaries.items():
-        if kind not in FREQUENCY_KINDS:
-            raise CaseError(f"boundary.{name}.{kind}: `fsivsp {command}` takes a velocity or a traction on a boundary "
-                            f"(a {kind} is a time-domain condition of `fsivsp run`)")
-    if command == "harmonic":
-        for name, (kind, _) in boundaries.items():
+    for name, (kind, value) in boundaries.items():
+        if kind not in FREQUENCY_KINDS[command]:
+            *others, last = FREQUENCY_KINDS[command]
+            raise CaseError(f"boundary.{name}.{kind}: `fsivsp {command}` takes {', '.join(others)} or {last} on a "
+                            "boundary")
+        if kind in ("velocity", "traction") and command == "harmonic":
             amplitude(plain[name][kind], f"boundary.{name}.{kind}", dim)
+        if kind in ("resistance", "windkessel") and value.distal_pressure != 0:
+            where = f"boundary.{name}.{kind}" + (".distal_pressure" if kind == "windkessel" else "")
+            raise expected(where if kind == "windkessel" else f"boundary.{name}.distal_pressure",
+                           "0 in `fsivsp harmonic` (a constant pressure does not oscillate: give an oscillating one "
+                           "as a traction)", value.distal_pressure)
     return boundaries, phases
 
 

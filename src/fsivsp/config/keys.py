@@ -109,12 +109,13 @@ KEYS: list[Key] = [
         'with `flow`: `"parabolic"`, `"plug"` or `"womersley"` (from the Fourier series of Q over `period`, '
         '`harmonics` terms, 1–100); `period` also makes a table periodic'),
     Key('boundary.NAME', ('resistance', 'distal_pressure'), '—, 0',
-        '`run` only: an outlet σn = −(P_d + R Q) n, Q = ∫ v·n; P_d a number or an expression of t'),
+        'an outlet σn = −(P_d + R Q) n, Q = ∫ v·n; P_d a number or an expression of t (`harmonic`: P_d = 0, the '
+        'outlet\'s impedance Z = R)'),
     Key('boundary.NAME', ('windkessel',), '—',
-        '`run` only: `{ proximal = R_p, capacitance = C, distal = R_d, distal_pressure = P_d }`: the RCR outlet '
-        'C dP_c/dt = Q − (P_c − P_d)/R_d, σn = −(P_c + R_p Q) n'),
+        '`{ proximal = R_p, capacitance = C, distal = R_d, distal_pressure = P_d }`: the RCR outlet '
+        'C dP_c/dt = Q − (P_c − P_d)/R_d, σn = −(P_c + R_p Q) n (`harmonic`: P_d = 0, Z(s) = R_p + R_d/(1 + sR_dC))'),
     Key('boundary.NAME', ('support',), '—',
-        '`run` only: `{ stiffness = k, damping = c }` on a solid boundary: tissue support σn = −k u − c v'),
+        '`{ stiffness = k, damping = c }` on a solid boundary: tissue support σn = −k u − c v (`run`, `harmonic`)'),
     Key('output', ('every',), '10',
         '`run` only: VTK output every so many steps'),
     Key('output', ('probes', 'lines'), 'none',

@@ -8,7 +8,11 @@ symmetric (not Hermitian) saddle-point system per frequency,
 
 M = ∫ρ v·w, K_F = 2ν ∫_F ε(v):ε(w), K_S = ∫_S Cε(v):ε(w), Bᵀp = ∫_F p div w, f̂ = ∫ f̂·w + Σ ∫_{Γ_N} t̂·w. It is
 s times the step matrix of (5.1) at the complex weight τ = 1/s (`forms.step_matrix`): A(1/s) (v̂, p̂) = f̂/s, so p̂
-is the pressure's amplitude itself. Displacement and stress follow from (5) and (18): û = v̂/s, σ̂_S = Cε(û).
+is the pressure's amplitude itself. Tissue support σn = −k u − c v adds (c + k/s) ∫_Γ v·w to the momentum equation,
+the step matrix's support term at τ = 1/s; a lumped outlet σn = −P n with P̂ = Z(s) Q̂ (`model.data.Windkessel.
+impedance`, the RCR's constant distal pressure does not oscillate) adds Z(s) c cᵀ, c = ∫_Γ φ·n, solved by Woodbury's
+formula around the factorisation (`solvers.woodbury`, weight Z(s)/s). Displacement and stress follow from (5) and
+(18): û = v̂/s, σ̂_S = Cε(û).
 
 The data are complex amplitudes: a datum g(x) cos(ωt − φ) = Re(ĝ e^{iωt}) has ĝ = g e^{−iφ} (`HarmonicData`), so
 the response to it is Re(v̂ e^{iωt}) = |v̂| cos(ωt − φ_v) with the lag φ_v = −arg v̂.
@@ -22,19 +26,21 @@ import ngsolve as ngs
 import numpy as np
 
 from ..fem import forms
+from ..fem.inflow import flux_vector
 from ..fem.loads import Loads
 from ..fem.spaces import Spaces
-from ..model.data import Data
+from ..model.data import Data, Support, Windkessel
 from ..model.fields import Field
 from ..model.materials import Materials
 from ..solvers import factorise, free_mask
+from ..solvers.woodbury import WoodburySolver
 
 
 @dataclass
 class HarmonicData:
     """The amplitudes of a harmonic case as fields of x (no t): body forces, Dirichlet velocities and tractions σn
     per boundary name, and each boundary's ``phase`` φ in degrees (the datum is g(x) cos(ωt − φ); default 0, as
-    for the body forces)."""
+    for the body forces); the lumped ``outlets`` and tissue ``supports`` by boundary name."""
 
     dim: int
     force_fluid: Field | None = None
@@ -42,6 +48,8 @@ class HarmonicData:
     boundary_velocity: dict[str, Field] = field(default_factory=dict)
     boundary_traction: dict[str, Field] = field(default_factory=dict)
     phase: dict[str, float] = field(default_factory=dict)
+    outlets: dict[str, Windkessel] = field(default_factory=dict)
+    supports: dict[str, Support] = field(default_factory=dict)
 
     def groups(self) -> dict[float, Data]:
         """The data of each phase (in degrees) as the `Data` of a time-domain run, whose fields do not depend on t."""
@@ -64,9 +72,11 @@ class HarmonicData:
 class Amplitudes:
     """f̂ (``load``) and ĝ (``boundary``, the Dirichlet values) on X_h (complex spaces): Σ_φ e^{−iφ} times the load
     vectors and Dirichlet values of the data of phase φ (`fem.loads.Loads`, once: they do not depend on the
-    frequency)."""
+    frequency); the data's ``outlets`` with their flux vectors ``fluxes`` and ``supports``."""
 
     def __init__(self, spaces: Spaces, data: HarmonicData):
+        self.outlets, self.supports = data.outlets, data.supports
+        self.fluxes = [flux_vector(spaces, name) for name in data.outlets]
         self.load = ngs.GridFunction(spaces.mixed).vec
         self.boundary = self.load.CreateVector()
         part, values = self.load.CreateVector(), self.load.CreateVector()
@@ -115,28 +125,45 @@ class Response:
         return (1 / self.s) * forms.elastic_stress(self.velocity, self.materials, self.state.space.mesh.dim)
 
 
-def harmonic_matrix(spaces: Spaces, materials: Materials, s: complex) -> ngs.BaseMatrix:
-    """A(1/s) = [[sM + K_F + K_S/s, −Bᵀ], [−B, 0]] / s on X_h (complex spaces): `forms.step_matrix` at τ = 1/s."""
-    return forms.step_matrix(spaces, materials, 1 / s).Assemble().mat
+def harmonic_matrix(spaces: Spaces, materials: Materials, s: complex,
+                    supports: dict[str, Support] | None = None) -> ngs.BaseMatrix:
+    """A(1/s) = [[sM + K_F + K_S/s, −Bᵀ], [−B, 0]] / s on X_h (complex spaces), with the ``supports``' terms:
+    `forms.step_matrix` at τ = 1/s."""
+    return forms.step_matrix(spaces, materials, 1 / s, supports).Assemble().mat
+
+
+class _Factors:
+    """The solve of a factorisation of A as `solvers.base.StepSolver` has it (for `WoodburySolver`)."""
+
+    def __init__(self, inverse: ngs.BaseMatrix):
+        self.inverse = inverse
+
+    def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector, guess=None) -> None:
+        out.data = boundary
+        self.inverse.MultAdd(1.0, rhs, out)
 
 
 def respond(spaces: Spaces, materials: Materials, amplitudes: Amplitudes, s: complex,
             method: str | None = None) -> Response:
     """(v̂, p̂) at ``s`` (s = 2πif for the frequency f): x = ĝ + A_ff⁻¹(f̂/s − A ĝ) with A = `harmonic_matrix`,
     factorised by `solvers.factorise` (``method``: a direct method, None: the fastest that passes its residual
-    check)."""
+    check), and the outlets' terms Σ (Z_i(s)/s) c_i c_iᵀ by Woodbury's formula around it."""
     start = time.perf_counter()
-    matrix = harmonic_matrix(spaces, materials, s)
+    matrix = harmonic_matrix(spaces, materials, s, amplitudes.supports)
     free = spaces.mixed.FreeDofs()
-    solver = factorise(matrix, free, method)
+    factors = factorise(matrix, free, method)
+    weights = [outlet.impedance(s) / s for outlet in amplitudes.outlets.values()]
+    solver = (WoodburySolver(_Factors(factors.inverse), amplitudes.fluxes, weights, free) if weights
+              else _Factors(factors.inverse))
     state = ngs.GridFunction(spaces.mixed)
     rhs = amplitudes.load.CreateVector()
     rhs.data = (1 / s) * amplitudes.load - matrix * amplitudes.boundary
     lifted = rhs.FV().NumPy().copy()
-    state.vec.data = amplitudes.boundary
-    solver.inverse.MultAdd(1.0, rhs, state.vec)
+    solver.solve_step(rhs, amplitudes.boundary, state.vec)
     rhs.data = (1 / s) * amplitudes.load - matrix * state.vec
+    for c, weight in zip(amplitudes.fluxes, weights):
+        rhs.data -= complex(weight * c.InnerProduct(state.vec, conjugate=False)) * c
     mask = free_mask(free, len(rhs))
     scale = np.linalg.norm(lifted[mask])
     residual = float(np.linalg.norm(rhs.FV().NumPy()[mask]) / scale) if scale else 0.0
-    return Response(complex(s), state, materials, solver.method, residual, time.perf_counter() - start)
+    return Response(complex(s), state, materials, factors.method, residual, time.perf_counter() - start)

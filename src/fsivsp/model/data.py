@@ -60,6 +60,10 @@ class Windkessel:
         """P_d(t)."""
         return time_function(self.distal_pressure)
 
+    def impedance(self, s: complex) -> complex:
+        """Z(s) = P̂/Q̂ of the outlet for fields ∝ e^{st} (P_d constant): R_p + R_d/(1 + s R_d C)."""
+        return self.proximal + self.distal / (1 + s * self.distal * self.capacitance)
+
     def record(self) -> dict:
         """The parameters as JSON (a checkpoint's fingerprint)."""
         return {"proximal": float(self.proximal), "capacitance": float(self.capacitance),
