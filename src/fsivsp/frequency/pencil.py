@@ -36,7 +36,7 @@ from ..geometry import SOLID
 from ..model.materials import Materials
 from ..runtime import parallel
 from ..solvers import free_mask, to_scipy_csr
-from ..solvers.petsc_layout import aij, from_summands
+from ..solvers.petsc_layout import aij, from_masters, from_summands
 
 
 @dataclass
@@ -77,21 +77,9 @@ def numbering(spaces: Spaces) -> Numbering:
     numbers[master] = start + np.arange(int(master.sum()))   # v, u, p masters in this order
     if shared is not None:   # v, u and p each by a vector of their own
         blocks = np.cumsum([0, len(velocity), int(solid.sum()), len(pressure)])
-        numbers = np.concatenate([cumulated(X, dofs[a:b], numbers[a:b], master[a:b])
+        numbers = np.concatenate([from_masters(X, dofs[a:b], numbers[a:b], master[a:b])
                                   for a, b in zip(blocks[:-1], blocks[1:])])
     return Numbering(velocity, solid, pressure, numbers, master, (start, start + int(master.sum())), size)
-
-
-def cumulated(X: ngs.FESpace, dofs: np.ndarray, numbers: np.ndarray, master: np.ndarray) -> np.ndarray:
-    """The masters' ``numbers`` of ``dofs`` on every rank that shares them: number + 1 at the master only in a
-    distributed vector, cumulated (exact: whole numbers far below 2⁵³)."""
-    vector = ngs.GridFunction(X).vec.CreateVector()
-    values = vector.FV().NumPy()
-    values[:] = 0.0
-    values[dofs[master]] = numbers[master] + 1
-    vector.SetParallelStatus(ngs.la.PARALLEL_STATUS.DISTRIBUTED)
-    vector.Cumulate()
-    return np.rint(vector.FV().NumPy()[dofs]).astype(np.int64) - 1
 
 
 def solid_dofs(spaces: Spaces) -> np.ndarray:

@@ -109,13 +109,13 @@ def layout(spaces: Spaces, matrix) -> Layout:
     numbers[np.flatnonzero(master[:nvel_local])] = numbers_v
     numbers[nvel_local + np.flatnonzero(master[nvel_local:])] = numbers_p
     if distributed:
-        numbers = _from_masters(X, local, numbers, master)
+        numbers = from_masters(X, local, numbers, master)
     return Layout(local=local, nvel_local=nvel_local, numbers=numbers, master=master, field=field,
                   blocksize=blocksize, rows=(int(starts[me]), int(starts[me + 1])),
                   nvel_rows=int(velocity_cuts[me + 1] - velocity_cuts[me]), size=int(nvel + npre), nvel=int(nvel))
 
 
-def _from_masters(X: ngs.FESpace, local: np.ndarray, numbers: np.ndarray, master: np.ndarray) -> np.ndarray:
+def from_masters(X: ngs.FESpace, local: np.ndarray, numbers: np.ndarray, master: np.ndarray) -> np.ndarray:
     """The masters' numbers on every rank that shares the dof: a distributed vector holding number + 1 at the
     master only, cumulated (exact: the numbers are integers far below 2⁵³)."""
     vector = ngs.GridFunction(X).vec.CreateVector()
