@@ -149,7 +149,7 @@ class ErrorNorm:
         kernel part before the product with G, which would otherwise leave a floor of about 1e-9 ‖E‖ (the
         rounding of G times an O(1) rigid motion, squared and rooted). ``quadrature``: by quadrature at every
         evaluation, as fields that do not separate in time (for a G whose kernel is not known: the stress
-        2μ ε_D(u) − P I of a solid pressure vanishes on dilations, and on quadratic conformal fields in P2)."""
+        2μ ε(u) − P I of a solid pressure vanishes on the dilation u = x with P = 2μ as on the rigid motions)."""
         if offset is not None and len(parts) != 1:
             raise ValueError("ErrorNorm: an offset needs a norm of one part")
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder

@@ -108,7 +108,7 @@ class Errors:
 
     @staticmethod
     def solid_pressure_stress(scheme: Scheme, exact: ExactSolution, intorder: int) -> ErrorNorm:
-        """‖σ − σ_h‖_{L²(Ω_S)} of a solid pressure's scheme, σ_h = σ*_h + 2μ ε_D(u_h) − P_h I on the carried (u_h, ϑP_h)
+        """‖σ − σ_h‖_{L²(Ω_S)} of a solid pressure's scheme, σ_h = σ*_h + 2μ ε(u_h) − P_h I on the carried (u_h, ϑP_h)
         of each group of solid regions of equal materials, by quadrature (`ErrorNorm`)."""
         spaces, mat, d = scheme.spaces, scheme.materials, scheme.spaces.mesh.dim
         phases, unit = spaces.phases, scheme.pressure_unit

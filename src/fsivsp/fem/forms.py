@@ -7,9 +7,10 @@ region-wise CoefficientFunctions where the regions' materials differ (`coefficie
 boundary (`model.data.Support`) adds its spring to K and its dashpot to K_F (`boundary_mass`).
 
 With a solid pressure (`Spaces.solid_pressure`, P_h on Ω_S, docs/solvers.md "The solid pressure") the solid stress
-is σ = σ*_h + 2μ ε_D(u) − P I, ε_D the deviator, with the discrete constitutive law P = −κ Π div u, κ = λ + 2μ/d
-and Π the L² projection onto P_h, kept as the rate relation π = −κ Π div v of the third unknown: the velocity block
-carries 2μΔt² ∫_S ε_D(v):ε_D(w) and no λ term, and step 1 reads (unknowns (vⁿ, pⁿ, ŝⁿ), ŝ = ϑπ)
+is σ = σ*_h + 2μ ε(u) − P I with the discrete constitutive law P = −κ Π div u, κ = λ (`bulk_modulus`) and Π the
+L² projection onto P_h (Herrmann's u–p form of elasticity), kept as the rate relation π = −κ Π div v of the third
+unknown: the velocity block carries 2μΔt² ∫_S ε(v):ε(w) and no λ term, and step 1 reads (unknowns (vⁿ, pⁿ, ŝⁿ),
+ŝ = ϑπ)
 
     A(v, w) − Δt ∫_F p div w − Δt²/ϑ ∫_S ŝ div w = ...,   −Δt ∫_F q div v = 0,
     −Δt²/ϑ ∫_S r div v − Δt²/(ϑ²κ) ∫_S ŝ r = 0,
@@ -76,8 +77,8 @@ def solid_trial_test(spaces: Spaces):
 
 
 def bulk_modulus(mat: Materials, dim: int):
-    """κ = λ + 2μ/d: the solid's P = −κ div u with σ = 2μ ε_D(u) − P I."""
-    return mat.lam + 2 * mat.mu / dim
+    """κ = λ: the solid pressure's P = −κ Π div u with σ = 2μ ε(u) − P I (the module's docstring)."""
+    return mat.lam
 
 
 def deviator(e, dim: int):
@@ -110,19 +111,19 @@ def elastic_stress(v, mat: Materials, dim: int):
 
 
 def solid_stress(u, pressure, mat: Materials, dim: int):
-    """2μ ε_D(u) − P I: the stress of a displacement u and a solid pressure P (a solid pressure's scheme)."""
-    return 2 * mat.mu * deviator(eps(u), dim) - pressure * ngs.Id(dim)
+    """2μ ε(u) − P I: the stress of a displacement u and a solid pressure P (a solid pressure's scheme)."""
+    return 2 * mat.mu * eps(u) - pressure * ngs.Id(dim)
 
 
 def _carried_stress(spaces: Spaces, mat: Materials, unit: float):
     """(u, ϑP) ↦ ∫_S σ:ε(w) as an integrand of X_h's trial and test functions: Cε(u):ε(w), or with a solid pressure
-    2μ ε_D(u):ε_D(w) − P div w (P = ŝ/ϑ, the module's docstring)."""
+    2μ ε(u):ε(w) − P div w (P = ŝ/ϑ, the module's docstring)."""
     d = spaces.mesh.dim
     (v, _), (w, _) = trial_test(spaces)
     if spaces.solid_pressure is None:
         return InnerProduct(elastic_stress(v, mat, d), eps(w))
     s, _ = solid_trial_test(spaces)
-    return InnerProduct(2 * mat.mu * deviator(eps(v), d), eps(w)) - (1 / unit) * s * div(w)
+    return InnerProduct(2 * mat.mu * eps(v), eps(w)) - (1 / unit) * s * div(w)
 
 
 def density(mat: Materials, spaces: Spaces) -> ngs.CoefficientFunction:
@@ -171,10 +172,9 @@ def step_matrix(spaces: Spaces, mat: Materials, dt: float, supports: Mapping[str
 def velocity_block(v, w, spaces: Spaces, mat: Materials, dt: float):
     """The velocity block A of `step_matrix`: ∫ρ v·w + 2νΔt ∫_F ε(v):ε(w) + 2μΔt² ∫_S ε(v):ε(w)
     + λΔt² ∫_S div v div w (an integrand for any velocity-like trial and test functions v, w); with a solid pressure
-    2μΔt² ∫_S ε_D(v):ε_D(w) in the solid."""
+    2μΔt² ∫_S ε(v):ε(w) alone in the solid (λ is in the solid pressure's rows)."""
     if spaces.solid_pressure is not None:
-        d = spaces.mesh.dim
-        solid = 2 * mat.mu * dt**2 * InnerProduct(deviator(eps(v), d), deviator(eps(w), d))
+        solid = 2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w))
     else:
         solid = 2 * mat.mu * dt**2 * InnerProduct(eps(v), eps(w)) + mat.lam * dt**2 * div(v) * div(w)
     return (integral(density(mat, spaces) * InnerProduct(v, w), spaces)
@@ -196,7 +196,7 @@ def solid_stiffness(spaces: Spaces, mat: Materials, supports: Mapping[str, Suppo
 
     By (18) the stress update is exact, σⁿ_h = σ*_h + M_σ⁻¹C uⁿ_h with the displacement uⁿ_h (5), and
     ∫_S σⁿ_h:ε(w) = ∫_S σ*_h:ε(w) + K uⁿ_h: the ∫_S σ:ε(w) terms of step 1 without stress-space
-    operators (`scheme`). With a solid pressure K (u, ϑP) = ∫_S (2μ ε_D(u) − P I):ε(w) (not symmetric: its solid
+    operators (`scheme`). With a solid pressure K (u, ϑP) = ∫_S (2μ ε(u) − P I):ε(w) (not symmetric: its solid
     pressure rows are zero), ``unit`` ϑ."""
     a = ngs.BilinearForm(spaces.mixed)
     a += integral(_carried_stress(spaces, mat, unit), spaces, SOLID)

@@ -104,7 +104,7 @@ class Surfaces:
             if fluid:
                 rows[f"{name}.pressure"] = (functional(name, test_pressure), "state", 1 / self.areas[name], 0.0)
                 traction = -test_pressure * n + 2 * scheme.coefficients.nu * eps(w) * n
-            elif scheme.spaces.solid_pressure is not None:   # σ_h = σ*_h + 2μ ε_D(u_h) − (ŝ/ϑ) I
+            elif scheme.spaces.solid_pressure is not None:   # σ_h = σ*_h + 2μ ε(u_h) − (ŝ/ϑ) I
                 r = scheme.spaces.mixed.TestFunction()[2]
                 traction = solid_stress(w, r / scheme.pressure_unit, scheme.coefficients, self.dim) * n
             else:

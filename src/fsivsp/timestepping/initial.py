@@ -69,9 +69,10 @@ def projected_state(spaces: Spaces, materials: Materials, data: Data, dirichlet:
 def initial_solid_pressure(spaces: Spaces, materials: Materials, unit: float, data: Data,
                            state: ngs.GridFunction, carried: ngs.GridFunction) -> None:
     """The solid pressure's initial values (`forms`), ϑP⁰ into ``carried``'s third component and ϑπ⁰ into ``state``'s,
-    from the exact data as a u–p method takes them: (P, r)_{1/κ} = (g, r) on P_h with g = −tr σ⁰/(dκ) where σ⁰ is
-    given, else −div u⁰ (0 without u⁰), and g = −div v⁰ for π⁰: P⁰ = Π(−κ div u⁰) for one material. Not from
-    I_h u⁰: its divergence error, times κ, would enter P⁰ (an error O(λ h^k) the step corrects only in part)."""
+    from the exact data as a u–p method takes them: (P, r)_{1/κ} = (g, r) on P_h (κ = `forms.bulk_modulus`) with
+    g = −tr(σ⁰ − 2μ ε(u⁰_h))/(dκ) where σ⁰ is given, else −div u⁰ (0 without u⁰), and g = −div v⁰ for π⁰:
+    P⁰ = Π(−κ div u⁰) for one material. Not from I_h u⁰: its divergence error, times κ, would enter P⁰ (an error
+    O(λ h^k) the step corrects only in part)."""
     space, d = spaces.solid_pressure, spaces.mesh.dim
     s, r = space.TnT()
     kappa = forms.bulk_modulus(materials, d)
@@ -83,7 +84,8 @@ def initial_solid_pressure(spaces: Spaces, materials: Materials, unit: float, da
         return ngs.Trace(Field(grad(field.components(), d)).coefficient(0.0))
 
     if data.stress0 is not None:
-        sources = [-ngs.Trace(data.stress0.coefficient(0.0)) / (d * kappa)]
+        elastic = forms.solid_stress(carried.components[0], 0.0, materials, d)   # its part in u⁰_h
+        sources = [-ngs.Trace(data.stress0.coefficient(0.0) - elastic) / (d * kappa)]
     else:
         sources = [-divergence(data.displacement0) if data.displacement0 is not None else None]
     sources.append(-divergence(data.velocity0))
