@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import CaseError, is_whole
-from ..fem.spaces import FAMILIES
+from ..fem.spaces import FAMILIES, SOLID_PRESSURES
 from ..geometry import Phases, geometry_phases
 from ..model.data import INITIAL_STRESS, INITIAL_VELOCITY
 from ..model.materials import FLUID_FIELDS, SOLID_FIELDS, Materials, lame
@@ -32,7 +32,7 @@ SECTIONS = {
     "materials": {"rho_fluid", "rho_solid", "nu", "lam", "mu"},
     "time": {"T", "dt", "scheme", "theta"},
     "discretisation": {"family", "order", "initial_stress", "initial_velocity", "solver", "tolerance", "max_iterations",
-                       "curved", "threads"},
+                       "curved", "threads", "solid_pressure"},
     "exact": {"velocity", "pressure", "displacement"},
     "solver": {"petsc"},
 }
@@ -114,8 +114,10 @@ def kinematic_note(nu: float, rho_fluid: float) -> None:
 @dataclass
 class Discretisation:
     """The element (``family``, ``order``), how σ⁰ and v⁰ are made, whether cells on curved boundaries are
-    ``curved`` and refinement moves new boundary nodes onto them (``project_refinement``). A case file's
-    ``[discretisation]`` (but its solver: `SolverSpec`) curves by default, and projects when it curves."""
+    ``curved`` and refinement moves new boundary nodes onto them (``project_refinement``), and whether the solid
+    keeps a pressure (``solid_pressure``: `fem.spaces.SOLID_PRESSURES`, ``"auto"`` resolved by the materials in
+    `fem.spaces.resolve_solid_pressure`). A case file's ``[discretisation]`` (but its solver: `SolverSpec`) curves by
+    default, and projects when it curves."""
 
     family: str = "mini"
     order: int = 1
@@ -123,6 +125,7 @@ class Discretisation:
     initial_velocity: str = "interpolation"
     curved: bool = False
     project_refinement: bool = True
+    solid_pressure: str = "auto"
 
 
 def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discretisation, SolverSpec]:
@@ -140,7 +143,9 @@ def read_discretisation(table: dict, solver: dict | None = None) -> tuple[Discre
     curved = table.get("curved", True)
     if not isinstance(curved, bool):
         raise CaseError(f"discretisation.curved: expected true or false, got {curved!r}")
-    return Discretisation(family, order, initial, velocity, curved, project_refinement=curved), spec
+    solid = choice(table, "solid_pressure", "discretisation", SOLID_PRESSURES, "auto")
+    return Discretisation(family, order, initial, velocity, curved, project_refinement=curved,
+                          solid_pressure=solid), spec
 
 
 def read_solver(table: dict, solver: dict) -> SolverSpec:

@@ -77,6 +77,12 @@ KEYS: list[Key] = [
     Key('discretisation', ('curved',), 'true',
         'isoparametric cells and projected refinement; 3D balls need `curvature_safety` ≥ 2 '
         '([docs/verification.md](verification.md))'),
+    Key('discretisation', ('solid_pressure',), '`"auto"`',
+        '`"none"`: the paper\'s discretisation; `"continuous"`: the solid keeps a pressure P = −λ Π div u '
+        '(σ = 2μ ε(u) − P I), continuous P_k on Ω_S (MINI: P1, with the cell bubble on solid cells too), an '
+        'unknown of the step: it does not lock as λ/μ grows, and PETSc\'s iterations stay flat in λ; `"auto"`: '
+        '`"continuous"` where some solid region has λ ≥ 10 μ (Poisson\'s ratio ≥ 0.455), else `"none"`; `study` '
+        'only for now (`run` keeps `"none"`) ([docs/solvers.md](solvers.md#the-solid-pressure))'),
     Key('discretisation', ('solver',), '`"auto"`',
         '`"direct"`, `"iterative"`, `"petsc"`, `"pardiso"`, `"umfpack"`, `"sparsecholesky"`, `"scipy"`; under mpirun'
         ' `"auto"`, `"petsc"`, `"direct"` (MUMPS), `"iterative"` ([docs/solvers.md](solvers.md))'),

@@ -142,23 +142,28 @@ class ErrorNorm:
 
     def __init__(self, space: ngs.FESpace, select: Callable, parts: list[Part], exact, intorder: int, bonus: int = 0,
                  offset: ngs.CoefficientFunction | None = None, kernel: list[ngs.BaseVector] | None = None,
-                 phases: Phases = Phases()):
+                 phases: Phases = Phases(), quadrature: bool = False):
         """``intorder``: quadrature order for the exact field; ``bonus``: see `Spaces.bonus_intorder`;
         ``kernel``: a basis of the kernel of the Gram matrix on the dofs it sees (Cε: `rigid_motions`). The
         projections are then solved for the singular G (`projection.gram_solver`), and Σ T_k π_k − u_h is cleared of its
         kernel part before the product with G, which would otherwise leave a floor of about 1e-9 ‖E‖ (the
-        rounding of G times an O(1) rigid motion, squared and rooted)."""
+        rounding of G times an O(1) rigid motion, squared and rooted). ``quadrature``: by quadrature at every
+        evaluation, as fields that do not separate in time (for a G whose kernel is not known: the stress
+        2μ ε(u) − P I of a solid pressure vanishes on the dilation u = x with P = 2μ as on the rigid motions)."""
         if offset is not None and len(parts) != 1:
             raise ValueError("ErrorNorm: an offset needs a norm of one part")
         self.space, self.select, self.parts, self.exact, self.intorder = space, select, parts, exact, intorder
         self.bonus, self.offset, self.phases = bonus, offset, phases
         w = select(space.TestFunction())
-        self._gram = gram_matrix(space, [(select, parts)], bonus, phases)
-        self._diff = self._gram.CreateColVector()
-        self._work = self._gram.CreateColVector()
         terms = separate_time_vector(_components(exact))
         # MPI: quadrature; the Gram solve runs distributed (`solvers.symmetric`), but the used dofs, the kernel
         # (`rigid_motions` by each rank's connected parts) and `NormGroup`'s partial products here are local
+        if quadrature:
+            terms = None
+        else:
+            self._gram = gram_matrix(space, [(select, parts)], bonus, phases)
+            self._diff = self._gram.CreateColVector()
+            self._work = self._gram.CreateColVector()
         if terms is None or space.ParallelDofs() is not None:
             self._time = ngs.Parameter(0.0)
             self._uh = ngs.GridFunction(space)

@@ -10,8 +10,8 @@ import numpy as np
 import sympy
 
 from ..config.case import Case
-from ..fem.forms import elastic_stress
-from ..fem.spaces import Spaces, base_order, build_spaces
+from ..fem.forms import elastic_stress, solid_stress
+from ..fem.spaces import Spaces, base_order, build_spaces, resolve_solid_pressure
 from ..geometry import (
     FLUID,
     FLUID_WALL,
@@ -87,6 +87,9 @@ class Errors:
                  for j in range(d)}
         mixed["p"] = self.pressure(spaces, exact)
         self.mixed = NormGroup(mixed)
+        if spaces.solid_pressure is not None:
+            self.stress = self.solid_pressure_stress(scheme, exact, intorder)
+            return
         kernel = rigid_motions(spaces.mixed, component(0), phases.solid)
         if mat.uniform(phases.solid):
             strain = [(SOLID, lambda u: elastic_stress(u, mat, d), lambda e: e)]
@@ -102,6 +105,22 @@ class Errors:
                   for names in groups.values()]
         self.stress = ErrorNorm(spaces.mixed, component(0), strain, sympy.Matrix(exact.displacement), intorder,
                                 bonus, kernel=kernel, phases=phases)
+
+    @staticmethod
+    def solid_pressure_stress(scheme: Scheme, exact: ExactSolution, intorder: int) -> ErrorNorm:
+        """‖σ − σ_h‖_{L²(Ω_S)} of a solid pressure's scheme, σ_h = σ*_h + 2μ ε(u_h) − P_h I on the carried (u_h, ϑP_h)
+        of each group of solid regions of equal materials, by quadrature (`ErrorNorm`)."""
+        spaces, mat, d = scheme.spaces, scheme.materials, scheme.spaces.mesh.dim
+        phases, unit = spaces.phases, scheme.pressure_unit
+        pair = lambda f: (f.components[0], f.components[2]) if isinstance(f, ngs.GridFunction) else (f[0], f[2])
+        groups: dict[tuple, list[str]] = {}
+        for region in phases.solid:
+            groups.setdefault(tuple(mat.of(region).constants().items()), []).append(region)
+        parts = [(pattern(names), lambda up, m=mat.of(names[0]): solid_stress(up[0], up[1] / unit, m, d),
+                  lambda e, m=mat.of(names[0]): manufactured.elastic_stress(list(e), m, d))
+                 for names in groups.values()]
+        return ErrorNorm(spaces.mixed, pair, parts, sympy.Matrix(exact.displacement), intorder, spaces.bonus_intorder,
+                         offset=scheme.stress_offset, phases=phases, quadrature=True)
 
     @staticmethod
     def intorder(spaces: Spaces) -> int:
@@ -136,7 +155,8 @@ def discretise(case: Case, mesh: ngs.Mesh) -> tuple[Scheme, Errors]:
     disc = case.discretisation
     if disc.curved:
         curve(mesh, base_order(disc.family, disc.order))
-    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh), phases)
+    spaces = build_spaces(mesh, disc.family, disc.order, dirichlet_boundaries(mesh), phases,
+                          solid_pressure=resolve_solid_pressure(disc.solid_pressure, case.materials, phases))
     data = manufactured_data(case.exact, case.materials, dirichlet_boundaries(mesh), disc.initial_stress,
                              disc.initial_velocity, phases)
     scheme = Scheme(spaces, case.materials, data, case.dt, solver=case.solver, time_scheme=case.time_scheme)

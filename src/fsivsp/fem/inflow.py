@@ -23,6 +23,7 @@ from ngsolve import InnerProduct
 from ..geometry.sections import Section, detect_section
 from ..model.data import FlowRate
 from ..model.womersley import fourier, frequencies, womersley_shape
+from . import forms
 from .spaces import Spaces
 
 log = logging.getLogger(__name__)
@@ -50,7 +51,7 @@ class Separated:
 def flux_vector(spaces: Spaces, name: str, sign: float = 1.0) -> ngs.BaseVector:
     """c = ``sign`` ∫_Γ φ·n over boundary ``name`` on X_h (n the outward normal): cᵀx is the flow ``sign`` ∫_Γ v·n
     of x (summed over the ranks under MPI)."""
-    w, _ = spaces.mixed.TestFunction()
+    w, _ = forms.test_functions(spaces)
     form = ngs.LinearForm(spaces.mixed)
     form += sign * InnerProduct(w, ngs.specialcf.normal(spaces.mesh.dim)) * ngs.ds(name)
     return form.Assemble().vec

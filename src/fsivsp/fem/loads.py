@@ -88,7 +88,7 @@ class Loads:
 
     def _linear_form(self, integrand: Callable, measure) -> Callable:
         """image(cf) for `TimeVector`: the load ∫ integrand(cf, w) over ``measure``."""
-        w, _ = self.spaces.mixed.TestFunction()
+        w, _ = forms.test_functions(self.spaces)
 
         def image(cf):
             form = ngs.LinearForm(self.spaces.mixed)
@@ -110,9 +110,10 @@ class Loads:
             fluid = dx(phases.pattern(FLUID), bonus_intorder=fluid_order)
             loads.append(TimeVector(d.force_fluid, self._linear_form(dot, fluid)))
         if d.force_solid is not None:
-            solid = dx(phases.pattern(SOLID), bonus_intorder=order)
+            solid = dx(phases.pattern(SOLID), bonus_intorder=order + self.spaces.solid_bonus_intorder)
             loads.append(TimeVector(d.force_solid, self._linear_form(dot, solid)))
-        bonus = {region: fluid_order if region in phases.fluid else order for region in phases.regions}
+        bonus = {region: fluid_order if region in phases.fluid else order + self.spaces.solid_bonus_intorder
+                 for region in phases.regions}
         for region, force in d.region_forces.items():
             loads.append(TimeVector(force, self._linear_form(dot, dx(pattern([region]), bonus_intorder=bonus[region]))))
         facets = region_facets(self.spaces) if d.region_tractions else {}

@@ -23,7 +23,7 @@ import numpy as np
 import scipy.sparse as sp
 from ngsolve import InnerProduct
 
-from ..fem.forms import elastic_stress, eps
+from ..fem.forms import elastic_stress, eps, solid_stress, test_functions
 from ..geometry import FLUID, INTERFACE, SOLID, adjacent_regions
 from ..runtime import parallel
 from . import atomic
@@ -90,7 +90,7 @@ class Surfaces:
         displacement u_h (σ_h = σ*_h + Cε(u_h)): column → (l, "state" or "carried", scale, constant) with the
         quantity scale·lᵀx + constant, l = ∫ χ q(w) for the test functions w, assembled once."""
         scheme = self.scheme
-        (w, test_pressure), n = scheme.spaces.mixed.TestFunction(), ngs.specialcf.normal(self.dim)
+        (w, test_pressure), n = test_functions(scheme.spaces), ngs.specialcf.normal(self.dim)
 
         def functional(name, integrand):
             form = ngs.LinearForm(scheme.spaces.mixed)
@@ -104,6 +104,9 @@ class Surfaces:
             if fluid:
                 rows[f"{name}.pressure"] = (functional(name, test_pressure), "state", 1 / self.areas[name], 0.0)
                 traction = -test_pressure * n + 2 * scheme.coefficients.nu * eps(w) * n
+            elif scheme.spaces.solid_pressure is not None:   # σ_h = σ*_h + 2μ ε(u_h) − (ŝ/ϑ) I
+                r = scheme.spaces.mixed.TestFunction()[2]
+                traction = solid_stress(w, r / scheme.pressure_unit, scheme.coefficients, self.dim) * n
             else:
                 traction = elastic_stress(w, scheme.coefficients, self.dim) * n
             for i, axis in enumerate("xyz"[: self.dim]):

@@ -21,18 +21,18 @@ from .sparse import to_scipy_csr
 
 
 class SchurPreconditioner:
-    """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘) (see the module's docstring): ``L`` a
+    """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘ + M⁻¹) (see the module's docstring): ``L`` a
     pressure Laplacian applied by an inner PC under the prefix ``prefix`` (BoomerAMG, its cycles set by
     ``schur_laplacian_pc_hypre_boomeramg_max_iter``), ``R`` a sparse matrix (None: one application of L⁻¹ and no
-    second), ``weight`` a diagonal (None: none)."""
+    second), ``weight`` a diagonal (None: none), ``mass`` a KSP applying M⁻¹ (None: none; `petsc_joint`)."""
 
-    def __init__(self, PETSc, laplacian, middle, weight, prefix: str):
+    def __init__(self, PETSc, laplacian, middle, weight, prefix: str, mass=None):
         self.amg = PETSc.PC().create(comm=laplacian.getComm())
         self.amg.setOptionsPrefix(prefix)
         self.amg.setOperators(laplacian)
         self.amg.setFromOptions()
         self.amg.setUp()
-        self.middle, self.weight = middle, weight
+        self.middle, self.weight, self.mass = middle, weight, mass
         self._u, self._v = laplacian.createVecs()
 
     def apply(self, pc, x, y) -> None:
@@ -44,6 +44,9 @@ class SchurPreconditioner:
             self.amg.apply(self._v, y)
         if self.weight is not None:
             self._u.pointwiseMult(self.weight, x)
+            y.axpy(1.0, self._u)
+        if self.mass is not None:
+            self.mass.solve(x, self._u)
             y.axpy(1.0, self._u)
         y.scale(-1.0)
 
@@ -123,7 +126,7 @@ def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
 def _masses(solver, spaces: Spaces, materials: Materials):
     """The diagonals of the velocity mass ρM and the pressure mass M_p/(2ν) as PETSc vectors (PETSc's order)."""
     X = spaces.mixed
-    (_, p), (_, q) = X.TnT()
+    (_, p), (_, q) = forms.trial_test(spaces)
     mass = forms.velocity_mass(spaces, materials)
     pmass = ngs.BilinearForm(X)
     pmass += forms.pressure_mass(p, q, spaces, 1 / (2 * materials.nu))

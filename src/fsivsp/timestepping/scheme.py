@@ -36,7 +36,7 @@ from ..runtime import threads
 from ..runtime.logs import stage
 from ..solvers import SolverError, SolverSpec, compact, step_solver
 from ..solvers.woodbury import WoodburySolver
-from .initial import initial_multiplier, initial_state, project_offset
+from .initial import initial_multiplier, initial_solid_pressure, initial_state, project_offset
 from .marching import march
 from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
@@ -78,6 +78,7 @@ class Scheme:
         threads.fit(spaces.free_dofs())
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
+        self.pressure_unit = self.tau   # ϑ: a solid pressure's unknowns are ϑπ and ϑP (`forms`)
         X, dim = spaces.mixed, spaces.mesh.dim
         self.coefficients = mat = forms.coefficients(materials, spaces)
         supports = data.supports
@@ -86,7 +87,7 @@ class Scheme:
                                                                                    self._outlet_state)]
 
         with stage("assembly"):
-            step = forms.step_matrix(spaces, mat, self.tau, supports).Assemble()
+            step = forms.step_matrix(spaces, mat, self.tau, supports, unit=self.pressure_unit).Assemble()
             self._matrix = compact(step.mat, symmetric=spaces.periodic)
             del step
             self.flux_vectors = [flux_vector(spaces, outlet.name) for outlet in self.outlets]
@@ -97,10 +98,10 @@ class Scheme:
                 self.solver = WoodburySolver(self.solver, self.flux_vectors,
                                              [outlet.weight(time_scheme, dt) for outlet in self.outlets],
                                              X.FreeDofs())
-        self._stiffness = compact(forms.solid_stiffness(spaces, mat, supports).Assemble().mat)
+        self._stiffness = compact(forms.solid_stiffness(spaces, mat, supports, self.pressure_unit).Assemble().mat)
         self._lagged_coefficients = time_scheme.lagged(dt)
-        self._lagged = compact(forms.lagged_operator(spaces, mat, *self._lagged_coefficients, supports)
-                               .Assemble().mat)
+        self._lagged = compact(forms.lagged_operator(spaces, mat, *self._lagged_coefficients, supports,
+                                                     self.pressure_unit).Assemble().mat)
         self._viscous = compact(forms.fluid_viscous(spaces, mat, supports).Assemble().mat) \
             if self._lagged_coefficients[1] else None
         self._work = self._matrix.CreateColVector()
@@ -108,15 +109,19 @@ class Scheme:
         self.loads = Loads(spaces, data, self._matrix, materials)
         self.inflows = self.loads.inflows
 
-        self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ)
-        self.carried = ngs.GridFunction(X)     # (uⁿ_h, 0)
-        self.velocity, self.pressure = self.state.components
+        self.state = ngs.GridFunction(X)       # (vⁿ, pⁿ), and ϑπⁿ with a solid pressure
+        self.carried = ngs.GridFunction(X)     # (uⁿ_h, 0), and ϑPⁿ with a solid pressure
+        self.velocity, self.pressure = self.state.components[:2]
         self.displacement = self.carried.components[0]
+        #: ϑPⁿ (a GridFunction on P_h), None without a solid pressure
+        self.solid_pressure = self.carried.components[2] if spaces.solid_pressure is not None else None
         self.previous = (self.state.vec.CreateVector(), self.state.vec.CreateVector()) \
             if time_scheme.levels == 2 else None
         self.solution = ngs.GridFunction(X) if time_scheme.name != "backward_euler" else None
         self.stress_offset = ngs.GridFunction(spaces.stress) if data.stress0 is not None else None   # σ*_h
-        self.stress = forms.elastic_stress(self.displacement, mat, dim)
+        self._discrete_stress = forms.elastic_stress(self.displacement, mat, dim) if self.solid_pressure is None else \
+            forms.solid_stress(self.displacement, (1 / self.pressure_unit) * self.solid_pressure, mat, dim)
+        self.stress = self._discrete_stress
         if self.stress_offset is not None:
             self.stress = self.stress_offset + self.stress
         self.time, self.n = 0.0, 0
@@ -134,11 +139,13 @@ class Scheme:
         σ*_h = σ⁰_h − C ε(u⁰_h); b* = ∫_S σ*_h:ε(w) and the elastic energy of σ*_h (`initial`)."""
         d, spaces = self.data, self.spaces
         initial_state(spaces, self.coefficients, d, self.loads.dirichlet, self.state, self.carried)
+        if self.solid_pressure is not None:
+            initial_solid_pressure(spaces, self.coefficients, self.pressure_unit, d, self.state, self.carried)
         self._offset_load = self.state.vec.CreateVector()
         self._offset_load[:] = 0.0
         self._offset_energy = 0.0
         if self.stress_offset is not None:
-            self._offset_energy = project_offset(spaces, self.coefficients, d.stress0, self.displacement,
+            self._offset_energy = project_offset(spaces, self.coefficients, d.stress0, self._discrete_stress,
                                                  self.stress_offset, self._offset_load)
         for outlet, flow in zip(self.outlets, self.outlet_flows()):
             outlet.start(flow)
@@ -212,6 +219,9 @@ class Scheme:
                                       + (beta * current.theta) * self.solution.components[1].vec)
             self.solution.vec.data = raw
         self.displacement.vec.data = self._explicit.components[0].vec + current.tau(self.dt) * self.velocity.vec
+        if self.solid_pressure is not None:   # ϑPⁿ = ϑP̃ⁿ + τ ϑπⁿ, as the displacement
+            self.solid_pressure.vec.data = (self._explicit.components[2].vec
+                                            + current.tau(self.dt) * self.state.components[2].vec)
         for outlet, flow in zip(self.outlets, self.outlet_flows()):
             outlet.accept(n, flow)
         self.time, self.n = n * self.dt, n
@@ -283,8 +293,9 @@ class Scheme:
         the bound holds with them."""
         spaces, mat, dt, supports = self.spaces, self.coefficients, self.dt, self.data.supports
         tau = current.tau(dt)
-        matrix = compact(forms.step_matrix(spaces, mat, tau, supports).Assemble().mat)
-        lagged = compact(forms.lagged_operator(spaces, mat, *current.lagged(dt), supports).Assemble().mat)
+        unit = self.pressure_unit
+        matrix = compact(forms.step_matrix(spaces, mat, tau, supports, unit=unit).Assemble().mat)
+        lagged = compact(forms.lagged_operator(spaces, mat, *current.lagged(dt), supports, unit).Assemble().mat)
         weights = [outlet.weight(current, dt) for outlet in self.outlets]
         self.right_hand_side(current, n, self._rhs, self._boundary, lagged, lift=False)
         free = ngs.Projector(spaces.mixed.FreeDofs(), True)
