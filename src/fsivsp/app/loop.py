@@ -29,7 +29,7 @@ class SolveDiverged(RuntimeError):
 
 def build_scheme(case: RunCase):
     """The `Scheme` of a run case: its spaces (the cells curved if the case says so), data and solver."""
-    from ..fem.spaces import base_order, build_spaces
+    from ..fem.spaces import base_order, build_spaces, resolve_solid_pressure
     from ..model.data import Data
     from ..model.manufactured import elastic_stress
     from ..timestepping.scheme import Scheme
@@ -39,7 +39,8 @@ def build_scheme(case: RunCase):
     with stage("spaces"):
         if disc.curved:
             curve(case.mesh, base_order(disc.family, disc.order))
-        spaces = build_spaces(case.mesh, disc.family, disc.order, dirichlet(conditions), case.phases)
+        spaces = build_spaces(case.mesh, disc.family, disc.order, dirichlet(conditions), case.phases,
+                              solid_pressure=resolve_solid_pressure(disc.solid_pressure, case.materials, case.phases))
     zero = [0] * case.dim
     displacement0 = case.data.get("displacement0", zero)
     data = Data(
