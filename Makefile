@@ -22,6 +22,7 @@ demo: $(VENV)
 	$(BIN)/fsivsp paper --dt 1e-2 --levels 0-3 --json demo/paper.json
 	$(BIN)/fsivsp study examples/fluid_over_solid_2d.toml --levels 0-2 --json demo/study.json
 	$(BIN)/fsivsp run examples/pressure_wave_2d.toml --out demo/pressure_wave_2d
+	$(BIN)/fsivsp run examples/artery_2d.toml --out demo/artery_2d
 	$(BIN)/fsivsp modes examples/modes_2d.toml --out demo/modes_2d
 	$(BIN)/fsivsp harmonic examples/harmonic_3d.toml --out demo/harmonic_3d
 
