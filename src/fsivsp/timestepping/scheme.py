@@ -40,6 +40,7 @@ from .initial import initial_multiplier, initial_state, project_offset
 from .marching import march
 from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
+from .warmstart import Extrapolation
 
 
 def solver_stage(solver) -> str:
@@ -125,6 +126,7 @@ class Scheme:
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
+        self.warm = Extrapolation(self.state.vec)   # xⁿ⁻¹ and the iterative solver's start (`warmstart`)
         with stage("initial data"):
             self.initialise()
 
@@ -148,6 +150,7 @@ class Scheme:
         if self.solution is not None:
             self._initial_pressure = d.pressure0 is not None
             initial_multiplier(d, self.state.vec, self.solution, self.time_scheme.start(0).theta)
+        self.warm.shift(self.latest())
         self.time, self.n = 0.0, 0
 
     def step(self) -> None:
@@ -167,13 +170,15 @@ class Scheme:
         march(self, steps, observe)
 
     def history(self) -> dict[str, ngs.BaseVector | np.ndarray]:
-        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores); the outlets'
+        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores), the previous raw
+        solution xⁿ⁻¹ included (where the iterative solver starts, `warmstart`: bit for bit on resuming); the outlets'
         states (P_cⁿ, P_cⁿ⁻¹, Qⁿ each, the same on every rank) as an array."""
         vectors = {"state": self.state.vec, "displacement": self.carried.vec}
         if self.previous is not None:
             vectors.update(previous_state=self.previous[0], previous_displacement=self.previous[1])
         if self.solution is not None:
             vectors["solution"] = self.solution.vec
+        vectors["previous_solution"] = self.warm.older
         if self.outlets:
             vectors["outlets"] = self._outlet_state
         return vectors
@@ -184,9 +189,19 @@ class Scheme:
         return [InnerProduct(c, x) for c in self.flux_vectors]
 
     # -- the step's pieces, which `step` and `marching` drive ------------------------------------------
-    def guess(self) -> ngs.BaseVector:
-        """Where an iterative solver starts: the last raw solution (vⁿ, mⁿ)."""
+    def latest(self) -> ngs.BaseVector:
+        """The last raw solution xⁿ: (vⁿ, pⁿ), or (vⁿ, mⁿ) with the multiplier mⁿ."""
         return self.state.vec if self.solution is None else self.solution.vec
+
+    def guess(self) -> ngs.BaseVector:
+        """Where an iterative solver starts step n + 1: 2xⁿ − xⁿ⁻¹ (`warmstart`), or xⁿ."""
+        return self.warm.start(self.time_scheme, self.n, self.latest())
+
+    def complete_history(self, missing: set[str]) -> None:
+        """After a checkpoint without the ``missing`` vectors of `history` (an older format): xⁿ⁻¹ := xⁿ, so
+        that the next step starts from xⁿ as that format's runs did."""
+        if "previous_solution" in missing:
+            self.warm.shift(self.latest())
 
     def _combine(self, coefficients, out: ngs.BaseVector) -> None:
         """out = Σ c_k h_k over the history h = (uⁿ, vⁿ, uⁿ⁻¹, vⁿ⁻¹) (``previous`` for the older level)."""
@@ -200,6 +215,7 @@ class Scheme:
         """Make step n the scheme's state: vⁿ, pⁿ = α mⁿ + β p̂ⁿ⁻¹ (`Theta.pressure`), uⁿ_h = ũⁿ + τ vⁿ
         with ũⁿ from the history before it (`timeschemes`), the history shifted; tₙ; then ``observe``."""
         self._combine(current.explicit(self.dt), self._explicit.vec)
+        self.warm.shift(self.latest())
         if self.previous is not None:
             self.previous[0].data = self.state.vec
             self.previous[1].data = self.carried.vec
