@@ -34,7 +34,7 @@ from ..model.data import Data
 from ..model.materials import Materials
 from ..runtime import threads
 from ..runtime.logs import stage
-from ..solvers import SolverError, SolverSpec, compact, step_solver
+from ..solvers import SolverError, SolverSpec, compact, solver_kind, step_solver
 from ..solvers.woodbury import WoodburySolver
 from .initial import initial_multiplier, initial_state, project_offset
 from .marching import march
@@ -73,10 +73,11 @@ class Scheme:
                  solver: SolverSpec | None = None, time_scheme: Theta | BDF2 = Theta()):
         """``solver``: the `SolverSpec` of step 1 (None: the default spec), passed to `solvers.step_solver`;
         ``time_scheme``: `timeschemes.time_scheme`. A run on the default threads takes one for a small problem
-        (`threads.fit`)."""
+        and for a 2D factorisation (`threads.fit`)."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
-        threads.fit(spaces.free_dofs())
+        unknowns, dim = spaces.free_dofs(), spaces.mesh.dim
+        threads.fit(unknowns, dim, solver_kind(solver or SolverSpec(), unknowns, dim))
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         X, dim = spaces.mixed, spaces.mesh.dim
