@@ -103,7 +103,7 @@ def plot(rows: list[dict], path: Path) -> None:
 def growth(rows: list[dict], method: str) -> None:
     """Print how the time per step of ``method`` grows between its two largest sizes."""
     import math
-    mine = [r for r in rows if r["solver"] == method]
+    mine = list({r["dofs"]: r for r in rows if r["solver"] == method}.values())   # one row per size
     if len(mine) < 2:
         return
     a, b = mine[-2], mine[-1]
@@ -151,6 +151,11 @@ def main() -> None:
                   f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = "
                   f"{row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
                   flush=True)
+    print("the cost of a step in step-matrix products against N (summary.json's matvec_ratio):")
+    for row in rows:
+        cost = row["cost"]
+        its = f"{cost['iterations_mean']:6.1f}" if cost["iterations_mean"] is not None else f"{'-':>6}"
+        print(f"  N {row['dofs']:>9}  {row['solver']:>9}  iterations {its}  matvec_ratio {cost['matvec_ratio']:8.1f}")
     for method in ("iterative", "petsc"):
         growth(rows, method)
     if args.json:
