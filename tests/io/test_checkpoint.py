@@ -145,4 +145,4 @@ def test_format_3_is_read_and_older_ones_refused(tmp_path, mesh):
 
     with pytest.raises(CheckpointError) as info:
         load_checkpoint(older_format(path, 2, tmp_path), make_scheme(mesh))
-    assert "\n" not in str(info.value) and "format 2 of an older fsivsp" in str(info.value)
+    assert "\n" not in str(info.value) and "format 2, which this version of fsivsp does not read" in str(info.value)

@@ -207,8 +207,8 @@ def _read_part(path: Path, current: dict, targets: dict[str, np.ndarray], token:
     saved = json.loads(str(contents["fingerprint"]))
     written = saved.get("format")
     if written not in READABLE:
-        raise CheckpointError(f"checkpoint {path}: format {written} of an older fsivsp, which this version does not "
-                              f"read (formats {READABLE[0]}–{READABLE[-1]}); run the case again without --resume")
+        raise CheckpointError(f"checkpoint {path}: format {written}, which this version of fsivsp does not read "
+                              f"(it reads formats {READABLE[0]}–{READABLE[-1]}); run the case again without --resume")
     problems = _mismatches({**saved, "format": FORMAT}, current)
     if problems:
         raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
