@@ -95,3 +95,19 @@ def test_resume_is_bit_identical(tmp_path, paper_meshes, name):
     for mine, theirs in zip(state(resumed) + [resumed.warm.older.FV().NumPy()],
                             state(whole) + [whole.warm.older.FV().NumPy()]):
         assert np.array_equal(mine, theirs)
+
+
+@needs_petsc
+@pytest.mark.parametrize("name", SCHEMES)
+def test_march_starts_where_step_does(paper_meshes, monkeypatch, name):
+    """`march`'s overlapped path forms each start from its own solutions (and the scheme's xⁿ before its second thread
+    accepts step 1): FGMRES takes the iterations of `Scheme.step` in a loop, step by step (their right-hand sides
+    differ by round-off only), over 10 steps started at step 2 (a march after steps already taken)."""
+    counts = []
+    for overlapped in (False, True):
+        monkeypatch.setattr(marching, "MARCH_THREAD_MIN_DOFS", 0 if overlapped else 10**12)
+        scheme = paper(name, paper_meshes[1], tolerance=1e-8)
+        scheme.march(2)
+        scheme.march(10)
+        counts.append(scheme.solver.iterations)
+    assert counts[0] == counts[1]
