@@ -140,8 +140,9 @@ def test_format_3_is_read_and_older_ones_refused(tmp_path, mesh):
     assert resumed.n == 3
     for a, b in zip(vectors(resumed), vectors(scheme)):
         assert np.array_equal(a, b)
-    assert np.array_equal(resumed.guess().FV().NumPy(), scheme.state.vec.FV().NumPy())   # 2xⁿ − xⁿ = xⁿ
-    assert not np.array_equal(scheme.guess().FV().NumPy(), scheme.state.vec.FV().NumPy())
+    newest = scheme.state.vec.FV().NumPy()
+    assert np.array_equal(resumed.warm.older.FV().NumPy(), newest)   # xⁿ⁻¹ := xⁿ: the start 2xⁿ − xⁿ⁻¹ is xⁿ
+    assert not np.array_equal(scheme.warm.older.FV().NumPy(), newest)
 
     with pytest.raises(CheckpointError) as info:
         load_checkpoint(older_format(path, 2, tmp_path), make_scheme(mesh))

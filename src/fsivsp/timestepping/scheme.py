@@ -40,7 +40,7 @@ from .initial import initial_multiplier, initial_state, project_offset
 from .marching import march
 from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
-from .warmstart import Extrapolation
+from .warmstart import Extrapolation, takes_start
 
 
 def solver_stage(solver) -> str:
@@ -127,7 +127,7 @@ class Scheme:
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
-        self.warm = Extrapolation(self.state.vec)   # xⁿ⁻¹ and the iterative solver's start (`warmstart`)
+        self.warm = Extrapolation(self.state.vec, takes_start(self.solver))   # xⁿ⁻¹, the start (`warmstart`)
         with stage("initial data"):
             self.initialise()
 
