@@ -8,7 +8,7 @@ quiet machine: the
 load average is printed before and after, and a run beside other jobs says nothing (docs/solvers.md, "Threads").
 
     python benchmarks/threads_default.py                          # ~4 × 40 s
-    python benchmarks/threads_default.py --repeats 3 --json benchmarks/threads_default.json
+    python benchmarks/threads_default.py --repeats 3 --also 2 --json benchmarks/threads_default.json
     python benchmarks/threads_default.py --args "paper --dt 1e-2 --levels 2-2"    # a quick check that it runs
 """
 from __future__ import annotations
@@ -47,6 +47,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--args", default=COMMAND, help=f"the fsivsp command line (default {COMMAND!r})")
     parser.add_argument("--repeats", type=int, default=2, help="runs of each, alternating (default 2)")
+    parser.add_argument("--also", type=int, nargs="*", default=[],
+                        help="thread counts to run beside them, e.g. 2 (what the default ran before issue 33)")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     arguments = shlex.split(args.args)
@@ -55,16 +57,22 @@ def main() -> None:
           + ("  (not quiet: the times below say little)" if load > 0.5 else ""), flush=True)
     rows = []
     for repeat in range(args.repeats):
-        for threads in (None, 1):
+        for threads in (None, 1, *args.also):
             row = run(arguments, threads)
             rows.append(row)
-            print(f"run {repeat + 1}  {'default' if threads is None else '--threads 1':>12}: {row['seconds']:7.2f} s"
-                  f"  ({row['solver']}, {row['unknowns']} unknowns)", flush=True)
-    best = {name: min(r["seconds"] for r in rows if (r["threads_given"] is None) == (name == "default"))
-            for name in ("default", "one")}
-    ratio = best["default"] / best["one"]
+            label = "default" if threads is None else f"--threads {threads}"
+            print(f"run {repeat + 1}  {label:>12}: {row['seconds']:7.2f} s  "
+                  f"({row['solver']}, {row['unknowns']} unknowns)", flush=True)
+    best = {("default" if given is None else f"--threads {given}"): min(r["seconds"] for r in rows
+                                                                         if r["threads_given"] == given)
+            for given in (None, 1, *args.also)}
+    for label, seconds in best.items():
+        if label not in ("default", "--threads 1"):
+            print(f"best {label}: {seconds:.2f} s = {seconds / best['--threads 1']:.3f} × --threads 1")
+    ratio = best["default"] / best["--threads 1"]
     after = os.getloadavg()[0]
-    print(f"best: default {best['default']:.2f} s, --threads 1 {best['one']:.2f} s: default / one = {ratio:.3f} "
+    print(f"best: default {best['default']:.2f} s, --threads 1 {best['--threads 1']:.2f} s: "
+          f"default / one = {ratio:.3f} "
           f"({'no slower' if ratio <= 1.0 else 'slower'}); load average after: {after:.2f}")
     if args.json:
         args.json.write_text(json.dumps({"command": args.args, "machine": platform.platform(), "load_before": load,
