@@ -1,4 +1,5 @@
-"""Scale: set-up time, time per step, iterations and peak memory against the number of unknowns.
+"""Scale: set-up time, time per step, iterations and peak memory against the number of unknowns, and the cost of
+a step in products with the step matrix (``matvec_ratio``, as summary.json records it: `timestepping.cost`).
 
 The 3D fluid ball of examples/fluid_in_solid_3d.toml (MINI, its manufactured data, no error norms: the
 work of `fsivsp run`), uniformly refined, with the iterative solver and, up to ``--direct-max``, the direct
@@ -30,6 +31,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
     from fsivsp.fem.spaces import build_spaces
     from fsivsp.geometry import refined
+    from fsivsp.timestepping.cost import StepClock, step_cost
     from fsivsp.timestepping.scheme import Scheme
     case = load_study_case(EXAMPLE).with_solver(tolerance=tolerance)
     if maxh is not None:
@@ -51,37 +53,17 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
     seconds["scheme"] = time.perf_counter() - start
     seconds["solver_setup"] = scheme.solver.factor_seconds
     setup_memory = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    seconds["matvec"] = matvec_seconds(scheme._matrix)
     start = time.perf_counter()
-    scheme.march(steps)
-    seconds["step"] = (time.perf_counter() - start) / steps
+    scheme.march(steps)   # each solve beside the rest of the step before, from 10 000 unknowns on
+    clock = StepClock()
+    clock.seconds, clock.steps = time.perf_counter() - start, steps
+    cost = step_cost(scheme, clock)
+    seconds["matvec"], seconds["step"] = cost["product_seconds"], cost["step_seconds"]
     return {"level": level, "solver": scheme.solver.method, "dofs": spaces.free_dofs(), "vertices": mesh.nv,
-            "cells": mesh.ne, "seconds": seconds, "steps": steps, "statistics": scheme.solver.statistics(),
+            "cells": mesh.ne, "seconds": seconds, "steps": steps, "cost": cost,
+            "statistics": scheme.solver.statistics(),
             "setup_peak_bytes": setup_memory,
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
-
-
-def median_seconds(apply, repeats: int) -> float:
-    """The median wall time of ``repeats`` calls of ``apply()``."""
-    import statistics
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        apply()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
-def matvec_seconds(matrix, repeats: int = 5) -> float:
-    """The median time of one product with the step matrix: the machine's cost of streaming it, which per
-    nonzero grows with the size here (memory bandwidth), so that time per step ÷ this is what the algorithm
-    adds."""
-    x, y = matrix.CreateColVector(), matrix.CreateColVector()
-    x[:] = 1.0
-
-    def product():
-        y.data = matrix * x
-    return median_seconds(product, repeats)
 
 
 def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict | None:
@@ -121,7 +103,7 @@ def plot(rows: list[dict], path: Path) -> None:
 def growth(rows: list[dict], method: str) -> None:
     """Print how the time per step of ``method`` grows between its two largest sizes."""
     import math
-    mine = [r for r in rows if r["solver"] == method]
+    mine = list({r["dofs"]: r for r in rows if r["solver"] == method}.values())   # one row per size
     if len(mine) < 2:
         return
     a, b = mine[-2], mine[-1]
@@ -164,11 +146,16 @@ def main() -> None:
             s, st = row["seconds"], row["statistics"]
             its = st.get("iterations") or {}
             print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  set-up {s['scheme']:8.1f} s "
-                  f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s = {s['step'] / s['matvec']:7.1f} "
+                  f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s = {row['cost']['matvec_ratio']:7.1f} "
                   f"products  its {its.get('mean', 0):6.1f}  "
                   f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = "
                   f"{row['peak_bytes'] / row['dofs'] / 1e3:6.1f} kB/unknown",
                   flush=True)
+    print("the cost of a step in step-matrix products against N (summary.json's matvec_ratio):")
+    for row in rows:
+        cost = row["cost"]
+        its = f"{cost['iterations_mean']:6.1f}" if cost["iterations_mean"] is not None else f"{'-':>6}"
+        print(f"  N {row['dofs']:>9}  {row['solver']:>9}  iterations {its}  matvec_ratio {cost['matvec_ratio']:8.1f}")
     for method in ("iterative", "petsc"):
         growth(rows, method)
     if args.json:

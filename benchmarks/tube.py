@@ -3,8 +3,9 @@
 Each (maxh, solver, ranks) is one ``fsivsp run`` of ``--steps`` steps in a process (or ``mpirun -np RANKS``) of its
 own. Reads the run's summary.json: free unknowns, the peak memory of each rank,
 iterations per step, set-up and time per step (the run's total minus its set-up, over the steps), one
-matrix–vector product of the step matrix (the PETSc solver's ``matvec_seconds``) and the step's cost in products.
-Prints a table and writes JSON.
+matrix–vector product of the step matrix (the PETSc solver's ``matvec_seconds``) and the step's cost in products;
+and the run's own record of that cost, ``matvec_ratio`` (summary.json: the steps alone over the median of 5 products
+with NGSolve's step matrix, `timestepping.cost`). Prints a table and writes JSON.
 
     python benchmarks/tube.py --maxh 0.1 0.07 0.05 --solvers petsc iterative --steps 3 --json benchmarks/tube.json
     python benchmarks/tube.py --maxh 0.05 --solvers petsc --ranks 1 2 --steps 3 --json benchmarks/tube_mpi.json
@@ -51,6 +52,7 @@ def measure(maxh: float, solver: str, ranks: int, steps: int, folder: Path) -> d
             "iterations": statistics.get("iterations"), "setup_seconds": seconds["setup"],
             "solver_setup_seconds": statistics.get("setup_seconds"), "step_seconds": step,
             "matvec_seconds": matvec, "step_matvecs": step / matvec if matvec else None,
+            "matvec_ratio": statistics.get("matvec_ratio"), "iterations_mean": statistics.get("iterations_mean"),
             "peak_bytes_per_rank": peak, "peak_bytes_of_ranks": summary.get("ranks", {}).get(
                 "peak_memory_bytes", [summary["peak_memory_bytes"]]), "l2_norms": summary["l2_norms"]}
 
@@ -65,7 +67,7 @@ def main() -> None:
     args = parser.parse_args()
     records = []
     print(f"{'maxh':>6} {'solver':>10} {'ranks':>5} {'unknowns':>10} {'its':>6} {'set-up s':>9} {'s/step':>8} "
-          f"{'matvecs':>8} {'GiB/rank':>8}")
+          f"{'matvecs':>8} {'ratio':>8} {'GiB/rank':>8}")
     with tempfile.TemporaryDirectory() as folder:
         for maxh in args.maxh:
             for solver in args.solvers:
@@ -77,8 +79,9 @@ def main() -> None:
                         continue
                     its = r["iterations"]["mean"] if r["iterations"] else float("nan")
                     matvecs = f"{r['step_matvecs']:8.0f}" if r["step_matvecs"] else f"{'–':>8}"
+                    ratio = f"{r['matvec_ratio']:8.0f}" if r["matvec_ratio"] else f"{'–':>8}"
                     print(f"{maxh:6.3f} {r['solver']:>10} {ranks:5d} {r['dofs']:10d} {its:6.1f} "
-                          f"{r['setup_seconds']:9.1f} {r['step_seconds']:8.2f} {matvecs} "
+                          f"{r['setup_seconds']:9.1f} {r['step_seconds']:8.2f} {matvecs} {ratio} "
                           f"{r['peak_bytes_per_rank'] / 2**30:8.2f}", flush=True)
                     if args.json:
                         args.json.write_text(json.dumps(records, indent=1) + "\n")

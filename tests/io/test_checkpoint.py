@@ -110,3 +110,40 @@ def test_latest_and_damaged_checkpoints(tmp_path, mesh):
     assert latest_checkpoint(tmp_path) == tmp_path / "checkpoint_000005.npz"
     with pytest.raises(CheckpointError, match="checkpoint_000009.npz: not a readable checkpoint"):
         load_checkpoint(tmp_path / "checkpoint_000009.npz", scheme)
+
+
+def older_format(path, written: int, tmp_path):
+    """The checkpoint ``path`` as a version of format ``written`` wrote it: without the vectors added since."""
+    import json
+    with np.load(path) as data:
+        arrays = {name: data[name] for name in data.files if checkpoint.ADDED.get(name, 0) <= written}
+    saved = json.loads(str(arrays["fingerprint"]))
+    arrays["fingerprint"] = np.array(json.dumps({**saved, "format": written}, sort_keys=True))
+    arrays["format"] = np.array(written, dtype=np.int64)
+    old = tmp_path / f"format{written}" / path.name
+    old.parent.mkdir()
+    np.savez_compressed(old, **arrays)
+    return old
+
+
+def test_format_3_is_read_and_older_ones_refused(tmp_path, mesh):
+    """A checkpoint of format 3 (before the warm start kept xⁿ⁻¹) resumes: the next step starts from xⁿ, as format 3's
+    runs did, and the state is the one saved; format 2 is refused in one line."""
+    scheme = make_scheme(mesh)
+    for _ in range(3):
+        scheme.step()
+    path = save_checkpoint(checkpoint_path(tmp_path, scheme.n), scheme, {"a": 1})
+    assert "previous_solution" in np.load(path).files
+
+    resumed = make_scheme(mesh)
+    assert load_checkpoint(older_format(path, 3, tmp_path), resumed) == {"a": 1}
+    assert resumed.n == 3
+    for a, b in zip(vectors(resumed), vectors(scheme)):
+        assert np.array_equal(a, b)
+    newest = scheme.state.vec.FV().NumPy()
+    assert np.array_equal(resumed.warm.older.FV().NumPy(), newest)   # xⁿ⁻¹ := xⁿ: the start 2xⁿ − xⁿ⁻¹ is xⁿ
+    assert not np.array_equal(scheme.warm.older.FV().NumPy(), newest)
+
+    with pytest.raises(CheckpointError) as info:
+        load_checkpoint(older_format(path, 2, tmp_path), make_scheme(mesh))
+    assert "\n" not in str(info.value) and "format 2, which this version of fsivsp does not read" in str(info.value)

@@ -153,3 +153,33 @@ def test_default_threads_take_one_for_a_small_problem(monkeypatch):
     with using(2):
         assert fit(10) == 2 and current() == 2
     assert current() == 1
+
+
+def test_default_threads_take_one_for_a_2d_factorisation(monkeypatch):
+    """The policy of `threads.fit` (docs/solvers.md, "Threads"): a default block runs a 2D direct solve on one thread
+    at every size (its step does not pay for two: a default run is then the ``--threads 1`` run), a 3D one and PETSc
+    in 2D on the block's count from THREADS_MIN_DOFS on; a count that was given is kept. The `Scheme` tells `fit`
+    its dimension and solver: the paper's level 0 with THREADS_MIN_DOFS out of the way takes one thread with the
+    direct solver and two with PETSc."""
+    from fsivsp.experiments.paper import paper_case
+    from fsivsp.experiments.study import discretise
+    from fsivsp.geometry import paper_channel
+    from fsivsp.runtime import threads
+    from fsivsp.runtime.threads import THREADS_MIN_DOFS, current, fit, using
+    from fsivsp.solvers import AUTO_ITERATIVE_DOFS, petsc_available
+
+    monkeypatch.setenv("FSIVSP_THREADS", "2")
+    with using():
+        assert fit(AUTO_ITERATIVE_DOFS[2] - 1, 2, "direct") == 1 and current() == 1
+        assert fit(THREADS_MIN_DOFS, 3, "direct") == 2 and current() == 2
+        assert fit(THREADS_MIN_DOFS, 2, "petsc") == 2
+        assert fit(THREADS_MIN_DOFS - 1, 3, "petsc") == 1
+    with using(2):
+        assert fit(THREADS_MIN_DOFS, 2, "direct") == 2 and current() == 2
+    monkeypatch.setattr(threads, "THREADS_MIN_DOFS", 0)
+    for method, expected in (("direct", 1), ("petsc", 2)):
+        if method == "petsc" and petsc_available() is not None:
+            continue
+        with using():
+            discretise(paper_case(1e-2).with_solver(method=method), paper_channel())
+            assert current() == expected, method

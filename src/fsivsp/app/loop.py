@@ -117,6 +117,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     from ..runtime.progress import tqdm
     from ..runtime.threads import current as current_threads
     from ..solvers import NotConverged
+    from ..timestepping.cost import StepClock, step_cost
 
     if parallel.distributed():
         check_distributed(case)
@@ -126,6 +127,7 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
     checkpoints = out / "checkpoints"
     scheme = build_scheme(case)
     setup = clock.perf_counter() - started
+    steps_clock = StepClock()   # the steps' wall time, for their cost in step-matrix products
     fields, stress = scheme_fields(scheme)
     series = VTKSeries(out / "vtk", case.mesh, fields, name="fields", subdivision=case.output["subdivision"],
                        refresh=stress, continuous=case.output["continuous"]) if case.output["vtk"] else None
@@ -191,7 +193,8 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
             "dofs": {"free": spaces.free_dofs(), "velocity": spaces.velocity.ndofglobal,
                      "pressure": global_count(spaces.pressure, spaces.pressure.FreeDofs()),
                      "stress": spaces.stress.ndofglobal},
-            "solver": {**scheme.solver.statistics(), "spec": case.solver.record()},
+            "solver": {**scheme.solver.statistics(), **step_cost(scheme, steps_clock, case.mesh.comm),
+                       "spec": case.solver.record()},
             "seconds": {"setup": setup, "solver_setup": scheme.solver.factor_seconds,
                         "total": clock.perf_counter() - started},
             "peak_memory_bytes": max(memory),
@@ -209,7 +212,8 @@ def run_case(case: RunCase, out: Path, resume: bool = False, quiet: bool = False
 
     def advance() -> None:
         try:
-            scheme.step()
+            with steps_clock:
+                scheme.step()
         except NotConverged as error:
             last = latest_checkpoint(checkpoints)
             finish("not converged")

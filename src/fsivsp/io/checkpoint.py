@@ -2,10 +2,12 @@
 
 A checkpoint is a ``.npz`` file holding the step number, the time, the coefficient
 vectors of the state (vⁿ, pⁿ) and the displacement uⁿ_h (which gives σⁿ_h, see `scheme`) with the
-time scheme's history (`Scheme.history`: BDF2's level n − 1, the θ-scheme's multiplier), a
+time scheme's history (`Scheme.history`: BDF2's level n − 1, the θ-scheme's multiplier, the previous step's
+solution xⁿ⁻¹ from which the iterative solver's start 2xⁿ − xⁿ⁻¹ is formed), a
 fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, the
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
-uninterrupted one bit for bit.
+uninterrupted one bit for bit. A checkpoint of format 3 (before the warm start) is still read: its next step starts
+from xⁿ, as it did then; older formats are refused in one line.
 
 Under mpirun every rank writes its own part, ``checkpoint_{step}.parts/rank{r}.npz`` (its local vectors,
 cumulated, and its fingerprint), and only then rank 0 writes the ``.npz`` file itself, the manifest: step, time,
@@ -35,7 +37,11 @@ import numpy as np
 from ..runtime import parallel
 from . import atomic
 
-FORMAT = 3  # 2: the displacement instead of the stress (lean operators); 3: time schemes
+FORMAT = 4  # 2: the displacement instead of the stress (lean operators); 3: time schemes; 4: xⁿ⁻¹ (warm start)
+#: The formats this version reads, and the vectors of `Scheme.history` a format added: a checkpoint of an older
+#: format readable here lacks them and the scheme completes its history (`Scheme.complete_history`).
+READABLE = (3, 4)
+ADDED = {"previous_solution": 4}
 PREFIX = "checkpoint"
 
 
@@ -172,6 +178,8 @@ def load_checkpoint(path: str | Path, scheme) -> dict:
     for name, values in vectors.items():
         targets[name][:] = values
     scheme.time, scheme.n = time, step
+    if missing := set(targets) - set(vectors):
+        scheme.complete_history(missing)
     return extra
 
 
@@ -196,15 +204,22 @@ def _read_part(path: Path, current: dict, targets: dict[str, np.ndarray], token:
     if token is not None and str(contents.get("token")) != token:
         raise CheckpointError(f"checkpoint {path}: belongs to another checkpoint than its manifest "
                               f"{path.parent.with_suffix('.npz')}")
-    problems = _mismatches(json.loads(str(contents["fingerprint"])), current)
+    saved = json.loads(str(contents["fingerprint"]))
+    written = saved.get("format")
+    if written not in READABLE:
+        raise CheckpointError(f"checkpoint {path}: format {written}, which this version of fsivsp does not read "
+                              f"(it reads formats {READABLE[0]}–{READABLE[-1]}); run the case again without --resume")
+    problems = _mismatches({**saved, "format": FORMAT}, current)
     if problems:
         raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
-    for name, target in targets.items():
+    present = {name: target for name, target in targets.items()
+               if name in contents or ADDED.get(name, 0) <= written}
+    for name, target in present.items():
         values = contents.get(name)
         if values is None or values.shape != target.shape:
             raise CheckpointError(f"checkpoint {path}: {name} has shape {None if values is None else values.shape}, "
                                   f"expected {target.shape}")
-    return {name: contents[name] for name in targets}
+    return {name: contents[name] for name in present}
 
 
 def _step(path: Path) -> int:

@@ -6,7 +6,8 @@
 A run is bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made
 on one thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
 (docs/solvers.md, "Threads"). Default (`default_threads`): ``FSIVSP_THREADS`` if set, else the cores this process
-may use; a count is the node's, divided among the MPI ranks on it (`per_rank`).
+may use; a count is the node's, divided among the MPI ranks on it (`per_rank`). A default run takes them only where
+they pay (`fit`): not for a small problem, nor for a 2D factorisation.
 """
 from __future__ import annotations
 
@@ -109,6 +110,15 @@ def _set_mkl(threads: int) -> int | None:
 #: (the paper's level 1: 0.4 ms a step on one thread, 312 ms on two beside the test suite).
 THREADS_MIN_DOFS = 50_000
 
+#: The (dimension, solver kind) whose default runs take one thread at every size (`fit`): their step does not pay
+#: for a second one, and a run is mostly steps. A serial 2D factorisation (PARDISO, also UMFPACK and SuperLU):
+#: its step is the factors' forward and backward substitution, memory-bound, which MKL does not parallelise, beside
+#: products that are short in 2D; the paper's level 4 (72 339 unknowns) stepped 0.91–0.92× as fast on two threads
+#: (BENCHMARKS.md, "Threads") and `fsivsp paper --dt 1e-3 --levels 4-4` (1 000 steps) took 36.0 s against 34.8 s
+#: with ``--threads 1``: the set-up's gain (0.49 → 0.30 s) is repaid within 200 steps. 3D factorisations (their
+#: set-up 1.8× on two threads, their step 1.00–1.14×) and PETSc keep the count.
+ONE_THREAD = {(2, "direct")}
+
 
 @dataclasses.dataclass
 class _Block:
@@ -146,16 +156,27 @@ def _run_on(block: _Block, threads: int) -> None:
         block.manager = _started()
 
 
-def fit(unknowns: int) -> int:
-    """The threads for a problem of ``unknowns`` free unknowns (all ranks'), set for the rest of the `using` block:
-    in a default block one below `THREADS_MIN_DOFS` per rank, else the block's count; a count that was given is
-    kept. Called by `Scheme` when it is made (a study's levels each in turn). Returns the count now in use."""
+def default_count(count: int, unknowns: int, dim: int | None = None, solver: str | None = None) -> int:
+    """The threads a default block of ``count`` threads gives a problem of ``unknowns`` free unknowns (all ranks') in
+    ``dim`` dimensions solved by ``solver`` (`solvers.solver_kind`: ``"direct"`` or ``"petsc"``): one below
+    `THREADS_MIN_DOFS` per rank or where the step does not pay for more (`ONE_THREAD`), else ``count``."""
+    from . import parallel
+
+    if unknowns < THREADS_MIN_DOFS * max(parallel.size(), 1) or (dim, solver) in ONE_THREAD:
+        return 1
+    return count
+
+
+def fit(unknowns: int, dim: int | None = None, solver: str | None = None) -> int:
+    """The threads for a problem of ``unknowns`` free unknowns (all ranks') in ``dim`` dimensions solved by
+    ``solver`` (`solvers.solver_kind`), set for the rest of the `using` block: in a default block `default_count`
+    (one below `THREADS_MIN_DOFS` per rank and for a 2D factorisation, `ONE_THREAD`), else the block's count; a count
+    that was given is kept. Called by `Scheme` when it is made (a study's levels each in turn). Returns the count
+    now in use."""
     if not _BLOCKS:
         return current()
     block = _BLOCKS[-1]
-    from . import parallel
-
-    wanted = 1 if block.auto and unknowns < THREADS_MIN_DOFS * max(parallel.size(), 1) else block.count
+    wanted = default_count(block.count, unknowns, dim, solver) if block.auto else block.count
     if wanted != current():
         _run_on(block, wanted)
     return wanted

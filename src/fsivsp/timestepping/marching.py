@@ -23,10 +23,13 @@ class Scheme(Protocol):
     solver: Any
     spaces: Any
     state: ngs.GridFunction
+    warm: Any    # `warmstart.Extrapolation`
 
     def step(self) -> None: ...
 
     def guess(self) -> ngs.BaseVector: ...
+
+    def latest(self) -> ngs.BaseVector: ...
 
     def right_hand_side(self, current, n: int, out: ngs.BaseVector, boundary: ngs.BaseVector) -> None: ...
 
@@ -52,7 +55,8 @@ def march(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | None =
     From `MARCH_THREAD_MIN_DOFS` free unknowns on, a second thread finishes step n while this one
     solves step n + 1: the stress update, ``observe`` (one call at a time and in order; the last in this
     thread) and the part of the next right-hand side without vⁿ⁺¹ (`Scheme.lagged_right_hand_side`).
-    Between two solves only the product R vⁿ⁺¹ is left. ``observe`` must not step
+    Between two solves only the product R vⁿ⁺¹ is left; each solve starts where `Scheme.step`'s would
+    (2xⁿ − xⁿ⁻¹, `warmstart`), formed before the second thread accepts step n. ``observe`` must not step
     the scheme. The results equal `Scheme.step` repeated up to round-off (7e-14 relative after 100 steps of the
     paper's experiment, level 4). On more threads (`threads.using`) the solve (PARDISO's substitutions, PETSc's
     FGMRES: neither runs under NGSolve's TaskManager) overlaps with the TaskManager stopped, so that the second core
@@ -97,11 +101,19 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
             scheme.lagged_right_hand_side(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], first + j + 1, work,
                                           products[(j - 1) % 2] if products and j > 1 else None)
 
+    def start(j: int) -> ngs.BaseVector:
+        """Step j's start, 2xⁿ − xⁿ⁻¹ (`warmstart`) with xⁿ, xⁿ⁻¹ the solutions of steps j − 1, j − 2 (the scheme's
+        before step 2 is accepted: formed before the second thread accepts step 1), or xⁿ."""
+        if j == 1:
+            return scheme.guess()
+        older = scheme.latest() if j == 2 else solutions[j % 2]
+        return scheme.warm.start(time_scheme, first + j - 1, solutions[(j - 1) % 2], older)
+
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
         for j in range(1, steps + 1):
+            guess = start(j)
             finished = second.submit(finish_previous, j)
-            scheme.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2],
-                                     scheme.guess() if j == 1 else solutions[(j - 1) % 2])
+            scheme.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2], guess)
             finished.result()
             if j < steps:
                 scheme.add_lagged(rhs[(j + 1) % 2], solutions[j % 2], first + j + 1,

@@ -34,12 +34,13 @@ from ..model.data import Data
 from ..model.materials import Materials
 from ..runtime import threads
 from ..runtime.logs import stage
-from ..solvers import SolverError, SolverSpec, compact, step_solver
+from ..solvers import SolverError, SolverSpec, compact, solver_kind, step_solver
 from ..solvers.woodbury import WoodburySolver
 from .initial import initial_multiplier, initial_solid_pressure, initial_state, project_offset
 from .marching import march
 from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
+from .warmstart import Extrapolation, takes_start
 
 
 def solver_stage(solver) -> str:
@@ -72,10 +73,11 @@ class Scheme:
                  solver: SolverSpec | None = None, time_scheme: Theta | BDF2 = Theta()):
         """``solver``: the `SolverSpec` of step 1 (None: the default spec), passed to `solvers.step_solver`;
         ``time_scheme``: `timeschemes.time_scheme`. A run on the default threads takes one for a small problem
-        (`threads.fit`)."""
+        and for a 2D factorisation (`threads.fit`)."""
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
-        threads.fit(spaces.free_dofs())
+        unknowns, dim = spaces.free_dofs(), spaces.mesh.dim
+        threads.fit(unknowns, dim, solver_kind(solver or SolverSpec(), unknowns, dim))
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         self.pressure_unit = self.tau   # ϑ: a solid pressure's unknowns are ϑπ and ϑP (`forms`)
@@ -130,6 +132,7 @@ class Scheme:
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
+        self.warm = Extrapolation(self.state.vec, takes_start(self.solver))   # xⁿ⁻¹, the start (`warmstart`)
         with stage("initial data"):
             self.initialise()
 
@@ -155,6 +158,7 @@ class Scheme:
         if self.solution is not None:
             self._initial_pressure = d.pressure0 is not None
             initial_multiplier(d, self.state.vec, self.solution, self.time_scheme.start(0).theta)
+        self.warm.shift(self.latest())
         self.time, self.n = 0.0, 0
 
     def step(self) -> None:
@@ -174,13 +178,15 @@ class Scheme:
         march(self, steps, observe)
 
     def history(self) -> dict[str, ngs.BaseVector | np.ndarray]:
-        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores); the outlets'
+        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores), the previous raw
+        solution xⁿ⁻¹ included (where the iterative solver starts, `warmstart`: bit for bit on resuming); the outlets'
         states (P_cⁿ, P_cⁿ⁻¹, Qⁿ each, the same on every rank) as an array."""
         vectors = {"state": self.state.vec, "displacement": self.carried.vec}
         if self.previous is not None:
             vectors.update(previous_state=self.previous[0], previous_displacement=self.previous[1])
         if self.solution is not None:
             vectors["solution"] = self.solution.vec
+        vectors["previous_solution"] = self.warm.older
         if self.outlets:
             vectors["outlets"] = self._outlet_state
         return vectors
@@ -191,9 +197,19 @@ class Scheme:
         return [InnerProduct(c, x) for c in self.flux_vectors]
 
     # -- the step's pieces, which `step` and `marching` drive ------------------------------------------
-    def guess(self) -> ngs.BaseVector:
-        """Where an iterative solver starts: the last raw solution (vⁿ, mⁿ)."""
+    def latest(self) -> ngs.BaseVector:
+        """The last raw solution xⁿ: (vⁿ, pⁿ), or (vⁿ, mⁿ) with the multiplier mⁿ."""
         return self.state.vec if self.solution is None else self.solution.vec
+
+    def guess(self) -> ngs.BaseVector:
+        """Where an iterative solver starts step n + 1: 2xⁿ − xⁿ⁻¹ (`warmstart`), or xⁿ."""
+        return self.warm.start(self.time_scheme, self.n, self.latest())
+
+    def complete_history(self, missing: set[str]) -> None:
+        """After a checkpoint without the ``missing`` vectors of `history` (an older format): xⁿ⁻¹ := xⁿ, so
+        that the next step starts from xⁿ as that format's runs did."""
+        if "previous_solution" in missing:
+            self.warm.shift(self.latest())
 
     def _combine(self, coefficients, out: ngs.BaseVector) -> None:
         """out = Σ c_k h_k over the history h = (uⁿ, vⁿ, uⁿ⁻¹, vⁿ⁻¹) (``previous`` for the older level)."""
@@ -207,6 +223,7 @@ class Scheme:
         """Make step n the scheme's state: vⁿ, pⁿ = α mⁿ + β p̂ⁿ⁻¹ (`Theta.pressure`), uⁿ_h = ũⁿ + τ vⁿ
         with ũⁿ from the history before it (`timeschemes`), the history shifted; tₙ; then ``observe``."""
         self._combine(current.explicit(self.dt), self._explicit.vec)
+        self.warm.shift(self.latest())
         if self.previous is not None:
             self.previous[0].data = self.state.vec
             self.previous[1].data = self.carried.vec
