@@ -100,6 +100,17 @@ DEFAULTS_SOLID_PRESSURE: dict[str, str] = {
     "schur_mass_pc_type": "jacobi",
 }
 
+#: With a solid pressure in 3D: the joint least-squares commutator (`petsc_joint`). The joint Cahouet–Chabard block's
+#: lower spectral bound against the exact Schur complement falls with h in the 3D fluid (the solid ball, MINI,
+#: λ/μ = 10⁴, Δt = 0.02, levels 0–2: 0.41, 0.25, 0.14, the low modes 97 % in the fluid; with exact velocity and
+#: Laplacian solves 22 → 26 iterations on levels 1–2), the commutator's stays at 0.44–0.58 (condition 4.2, 3.3, 3.3).
+#: Iterations, tolerance 1e-12: MINI 17.3, 22.0, 27.3 (32.3 on level 3) become 17.3, 17.3, 17.7; Δt = 0.1 31.7 → 34.7
+#: become 19.0 → 20.0; the fluid in a solid 20.7 → 27.0 become 20.7 → 19.3; Taylor–Hood 1 24.3 → 24.7 become
+#: 19.3 → 20.3, Taylor–Hood 2 33.0 → 37.0 become 34.7 → 31.3. In 2D the commutator grows where the solid is
+#: stiffness-dominated (the paper's case, MINI, Δt = 0.1, levels 1–3: 17, 20, 32 against 21, 24, 27): 2D keeps
+#: Cahouet–Chabard.
+DEFAULTS_SOLID_PRESSURE_3D: dict[str, str] = {"schur_approximation": "joint-lsc"}
+
 #: The joint Laplacian of a pressure of degree k ≥ 2 with a solid pressure: four BoomerAMG cycles (the prototype's
 #: Taylor–Hood k = 2 rows).
 DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"}
@@ -201,6 +212,7 @@ class PETScSolver:
         defaults = {**DEFAULTS, **velocity_defaults(spaces),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
+                    **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
@@ -216,7 +228,7 @@ class PETScSolver:
             if pc.getType() == "fieldsplit":
                 if (self.options.get("pc_fieldsplit_type") == "schur"
                         and self.options["schur_approximation"] != "petsc"):
-                    block = joint_pressure_block if self.options["schur_approximation"] == "joint-cahouet-chabard" \
+                    block = joint_pressure_block if self.options["schur_approximation"].startswith("joint") \
                         else pressure_block
                     self._schur = block(self, spaces, materials, dt)
                 if self.options.get("velocity_preconditioner") == "p-multigrid":
