@@ -1,11 +1,15 @@
 """Robustness of an iterative solver: mean and largest iterations per step against the level, Δt and the
-materials (issue 12's table; issue 22's for PETSc, with λ/μ = 10⁴ and Taylor–Hood k = 2 in 3D).
+materials (issue 12's table; issue 22's for PETSc, with λ/μ = 10⁴ and Taylor–Hood k = 2 in 3D; issue 33's
+"solid pressure" table, λ/μ = 10², 10⁴ with ``solid_pressure`` "none" and "continuous" in 2D and 3D).
 
 Each row: the case's manufactured data on its coarse mesh refined ``level`` times, ``--steps`` steps of the
-scheme with ``--solver`` at its default tolerance (no error norms).
+scheme with ``--solver`` at its default tolerance (no error norms), with the case's ``solid_pressure`` (default
+"auto": a solid pressure where λ ≥ 10 μ). ``--tables`` runs only the named tables (comma-separated).
 
     python benchmarks/robustness.py --solver petsc --json benchmarks/robustness_petsc.json
     python benchmarks/robustness.py --solver iterative --json benchmarks/robustness.json
+    python benchmarks/robustness.py --tables "solid pressure,Taylor–Hood k = 2 in 3D,materials" \
+        --json benchmarks/robustness_solid_pressure.json
 """
 from __future__ import annotations
 
@@ -17,7 +21,7 @@ from pathlib import Path
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.paper import paper_case
 from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
-from fsivsp.fem.spaces import build_spaces
+from fsivsp.fem.spaces import build_spaces, resolve_solid_pressure
 from fsivsp.geometry import refined
 from fsivsp.io.atomic import write_json
 from fsivsp.timestepping.scheme import Scheme
@@ -31,7 +35,9 @@ MAX_ITERATIONS = 20_000
 def iterations(case, level: int, steps: int, solver: str) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
-    spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet)
+    solid_pressure = resolve_solid_pressure(case.discretisation.solid_pressure, case.materials)
+    spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet,
+                          solid_pressure=solid_pressure)
     data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress,
                              case.discretisation.initial_velocity)
     start = time.perf_counter()
@@ -41,7 +47,29 @@ def iterations(case, level: int, steps: int, solver: str) -> dict:
     statistics = scheme.solver.statistics()
     return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
             "max": statistics["iterations"]["max"], "preconditioner": statistics["preconditioner"],
+            "solid_pressure": solid_pressure,
             "seconds": time.perf_counter() - start}
+
+
+def with_lam(case, ratio: float):
+    """``case`` with λ = ``ratio`` μ."""
+    return dataclasses.replace(case, materials=dataclasses.replace(case.materials, lam=ratio * case.materials.mu))
+
+
+def solid_pressure_rows(max_level_2d: int, max_level_3d: int):
+    """Issue 33's table: λ/μ = 10², 10⁴ without and with a solid pressure, MINI in 2D (the paper's case, Δt = 10⁻²)
+    and 3D (the solid ball, Δt = 0.02) on three levels, Taylor–Hood k = 2 in 3D with a solid pressure."""
+    solid = load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
+    for ratio in (1e2, 1e4):
+        for choice in ("none", "continuous"):
+            for label, case, top in (("paper", paper_case(1e-2), max_level_2d),
+                                     ("solid_in_fluid_3d", solid, max_level_3d)):
+                case = with_lam(case, ratio).with_discretisation(solid_pressure=choice)
+                for level in range(min(top, 2) + 1):
+                    yield "solid pressure", f"{label}, lam/mu = {ratio:g}, {choice}", case, level
+    taylor_hood = with_lam(solid, 1e4).with_discretisation(family="taylor_hood", order=2, solid_pressure="continuous")
+    for level in range(min(max_level_3d, 2) + 1):
+        yield "solid pressure", "solid_in_fluid_3d, Taylor–Hood k = 2, lam/mu = 1e+04, continuous", taylor_hood, level
 
 
 def rows(max_level_2d: int, max_level_3d: int):
@@ -71,6 +99,7 @@ def rows(max_level_2d: int, max_level_3d: int):
             for level in (1, 3):
                 yield "materials", f"paper, {name} = {value:g}", \
                     dataclasses.replace(paper, materials=dataclasses.replace(m, **changed)), level
+    yield from solid_pressure_rows(max_level_2d, max_level_3d)
 
 
 def main() -> None:
@@ -80,12 +109,18 @@ def main() -> None:
     parser.add_argument("--max-level-2d", type=int, default=4)
     parser.add_argument("--max-level-3d", type=int, default=3)
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--tables", default=None, help="only these tables (comma-separated names)")
     args = parser.parse_args()
+    tables = None if args.tables is None else set(args.tables.split(","))
     records = []
     for table, label, case, level in rows(args.max_level_2d, args.max_level_3d):
+        if tables is not None and table not in tables:
+            continue
         record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
                   **iterations(case, level, args.steps, args.solver)}
         records.append(record)
+        if args.json:
+            write_json(args.json, records)   # as it goes: a long run keeps what it measured
         print(f"{table:22} {label:32} dt {case.dt:7.0e} level {level} dofs {record['dofs']:>7}  "
               f"its mean {record['mean']:6.1f} max {record['max']:4d}  {record['seconds']:6.1f} s", flush=True)
     if args.json:

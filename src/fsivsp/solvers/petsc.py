@@ -33,6 +33,7 @@ from .base import NotConverged
 from .petsc_init import entered_options, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
+from .petsc_pmg import COARSE, SMOOTH, velocity_block
 from .petsc_schur import pressure_block
 from .sparse import to_scipy_csr
 
@@ -99,6 +100,17 @@ DEFAULTS_SOLID_PRESSURE: dict[str, str] = {
     "schur_mass_pc_type": "jacobi",
 }
 
+#: With a solid pressure in 3D: the joint least-squares commutator (`petsc_joint`). The joint Cahouet–Chabard block's
+#: lower spectral bound against the exact Schur complement falls with h in the 3D fluid (the solid ball, MINI,
+#: λ/μ = 10⁴, Δt = 0.02, levels 0–2: 0.41, 0.25, 0.14, the low modes 97 % in the fluid; with exact velocity and
+#: Laplacian solves 22 → 26 iterations on levels 1–2), the commutator's stays at 0.44–0.58 (condition 4.2, 3.3, 3.3).
+#: Iterations, tolerance 1e-12: MINI 17.3, 22.0, 27.3 (32.3 on level 3) become 17.3, 17.3, 17.7; Δt = 0.1 31.7 → 34.7
+#: become 19.0 → 20.0; the fluid in a solid 20.7 → 27.0 become 20.7 → 19.3; Taylor–Hood 1 24.3 → 24.7 become
+#: 19.3 → 20.3, Taylor–Hood 2 33.0 → 37.0 become 34.7 → 31.3. In 2D the commutator grows where the solid is
+#: stiffness-dominated (the paper's case, MINI, Δt = 0.1, levels 1–3: 17, 20, 32 against 21, 24, 27): 2D keeps
+#: Cahouet–Chabard.
+DEFAULTS_SOLID_PRESSURE_3D: dict[str, str] = {"schur_approximation": "joint-lsc"}
+
 #: The joint Laplacian of a pressure of degree k ≥ 2 with a solid pressure: four BoomerAMG cycles (the prototype's
 #: Taylor–Hood k = 2 rows).
 DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"}
@@ -108,6 +120,47 @@ DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boom
 #: hierarchical basis makes F a poor M-matrix for BoomerAMG: the 3D solid ball, Taylor–Hood k = 2, levels 0–1:
 #: 168, 185 iterations with one sweep, 54, 67 with three (12, 13 with F and the velocity block factorised).
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
+
+
+#: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
+_ELASTICITY = {key.removeprefix("fieldsplit_velocity_"): value for key, value in ELASTICITY_3D.items()}
+
+#: The velocity block by the two-level p-multigrid of `petsc_pmg` (Taylor–Hood where it is the default,
+#: `velocity_defaults`): two symmetric SOR sweeps on all velocity dofs, one BoomerAMG V-cycle with hypre's elasticity
+#: options on the vertex (P1) dofs (in 3D over the 3D settings of `DEFAULTS_3D`, as on the velocity).
+DEFAULTS_PMG: dict[str, str] = {
+    "velocity_preconditioner": "p-multigrid",
+    "fieldsplit_velocity_pc_type": "none",   # replaced by the two-level cycle after the fieldsplit's set-up
+    f"{SMOOTH}ksp_type": "richardson",
+    f"{SMOOTH}ksp_max_it": "2",
+    f"{SMOOTH}ksp_norm_type": "none",
+    f"{SMOOTH}pc_type": "sor",
+    f"{COARSE}pc_type": "hypre",
+    **{f"{COARSE}{key}": value for key, value in _ELASTICITY.items()},
+}
+
+
+#: With the p-multigrid and Taylor–Hood k ≥ 2 (velocity P_{k+1}, pressure P_k): three SSOR sweeps a smoothing and
+#: four BoomerAMG cycles on the pressure Laplacian. The 3D solid ball, Δt = 0.02, levels 0–1, tolerance 1e-12:
+#: λ/μ = 2, no solid pressure: 42.0 → 43.7 iterations with two sweeps and two cycles, 27.0 → 28.7 with four cycles,
+#: 26.0 → 27.0 with three sweeps too; λ/μ = 10⁴ with a solid pressure (four cycles already): 35.7 → 40.7 with two
+#: sweeps, 33.0 → 37.0 with three (30.0 → 33.7 with the velocity block factorised).
+PMG_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4", f"{SMOOTH}ksp_max_it": "3"}
+
+
+def velocity_defaults(spaces: Spaces) -> dict[str, str]:
+    """The velocity block's defaults: BoomerAMG on V_h (`DEFAULTS`; in 3D `DEFAULTS_3D` and `ELASTICITY_3D`), or for
+    Taylor–Hood in 3D or with a solid pressure the p-multigrid of `DEFAULTS_PMG`. Taylor–Hood in 2D without a solid
+    pressure keeps BoomerAMG (the paper's discretisation: its measured tables unchanged)."""
+    three = spaces.mesh.dim == 3
+    defaults = {**(DEFAULTS_3D if three else {}), **(ELASTICITY_3D if three else {})}
+    if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None):
+        coarse = {key.removeprefix("fieldsplit_velocity_"): value for key, value in DEFAULTS_3D.items()
+                  if three and key.startswith("fieldsplit_velocity_")}
+        defaults.update({**DEFAULTS_PMG, **{COARSE + key: value for key, value in {**coarse, **_ELASTICITY}.items()}})
+        if spaces.order >= 2:
+            defaults.update(PMG_HIGHER)
+    return defaults
 
 
 def rigid_motions(points: np.ndarray) -> np.ndarray:
@@ -156,10 +209,10 @@ class PETScSolver:
         self.fields[0].compose("nearnullspace", self._near_nullspace)
 
         solid = spaces.solid_pressure is not None
-        defaults = {**DEFAULTS, **(DEFAULTS_3D if spaces.mesh.dim == 3 else {}),
-                    **(ELASTICITY_3D if spaces.mesh.dim == 3 else {}),
+        defaults = {**DEFAULTS, **velocity_defaults(spaces),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
+                    **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
@@ -175,9 +228,11 @@ class PETScSolver:
             if pc.getType() == "fieldsplit":
                 if (self.options.get("pc_fieldsplit_type") == "schur"
                         and self.options["schur_approximation"] != "petsc"):
-                    block = joint_pressure_block if self.options["schur_approximation"] == "joint-cahouet-chabard" \
+                    block = joint_pressure_block if self.options["schur_approximation"].startswith("joint") \
                         else pressure_block
                     self._schur = block(self, spaces, materials, dt)
+                if self.options.get("velocity_preconditioner") == "p-multigrid":
+                    self._velocity = velocity_block(self, spaces)
                 self.ksp.setUp()
                 for block in pc.getFieldSplitSubKSP():  # else PETSc sets up the AMG at the first solve
                     block.setUp()
@@ -252,6 +307,7 @@ class PETScSolver:
             vector.normalize()
             vectors.append(vector)
         self.keep = list(vectors)
+        self.rigid_motion_vectors = vectors
         return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
@@ -284,6 +340,8 @@ class PETScSolver:
             obj.destroy()
         if getattr(self, "_schur", None) is not None:
             self._schur.amg.destroy()
+        if getattr(self, "_velocity", None) is not None:
+            self._velocity.destroy()
         unregister(self)
 
     def progress(self) -> str:
@@ -296,6 +354,8 @@ class PETScSolver:
                 "ranks": self.comm.getSize(),
                 "preconditioner": {"ksp": self.options["ksp_type"], "pc": self.ksp.getPC().getType() + " "
                                    + self.options.get("pc_fieldsplit_type", ""),
-                                   "velocity": self.options.get("fieldsplit_velocity_pc_type"),
+                                   "velocity": ("p-multigrid"
+                                                if self.options.get("velocity_preconditioner") == "p-multigrid"
+                                                else self.options.get("fieldsplit_velocity_pc_type")),
                                    "pressure": self.options["schur_approximation"]},
                 "iterations": {"mean": float(np.mean(counts)), "max": int(max(counts)), "solves": len(self.iterations)}}

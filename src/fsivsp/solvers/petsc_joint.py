@@ -14,6 +14,14 @@ steps (``schur_mass_``). In the prototype of issue 33 its condition number again
 Δt from 10⁻³ to 0.1, MINI and Taylor–Hood k = 1, 2, 2D and 3D. A fluid-only least-squares commutator plus a solid block
 missed the coupling across Γ (condition ≥ 29 at Δt = 0.1), and the joint least-squares commutator's bound grew like
 h⁻¹ where the solid is stiffness-dominated.
+
+The joint least-squares commutator (``schur_approximation = "joint-lsc"``, the default in 3D, `petsc`):
+
+    S⁻¹ ≈ −L⁻¹ (Yᵀ A Y + D) L⁻¹,   L = C Y + D,   Y = diag(A)⁻¹ Cᵀ,
+
+its middle factor corrected on the higher dofs as the fluid's (`petsc_schur`); ``"joint-lsc-mass"`` adds M̃⁻¹. In 3D
+Cahouet–Chabard's lower spectral bound falls with h in the fluid (docs/solvers.md, "The solid pressure"), the
+commutator's does not; in 2D the commutator grows where the solid is stiffness-dominated (Δt = 0.1).
 """
 from __future__ import annotations
 
@@ -24,7 +32,7 @@ from ..fem import forms
 from ..fem.spaces import Spaces
 from ..geometry import SOLID
 from ..model.materials import Materials
-from .petsc_schur import SchurPreconditioner, _laplacian, _masses, part
+from .petsc_schur import SchurPreconditioner, _correct, _galerkin, _laplacian, _masses, part
 from .sparse import to_scipy_csr
 
 
@@ -35,21 +43,51 @@ def joint_pressure_block(solver, spaces: Spaces, materials: Materials, dt: float
     a = solver.A.createSubMatrix(velocity, velocity)
     c = solver.A.createSubMatrix(pressure, velocity)
     d = solver.A.createSubMatrix(pressure, pressure)
+    name = solver.options["schur_approximation"]
+    if name.startswith("joint-lsc"):
+        mass = _mass_inverse(solver, spaces, materials, dt) if name == "joint-lsc-mass" else None
+        return _joint_lsc(solver, spaces, a, c, d, mass)
     mass, _ = _masses(solver, spaces, materials)
     weights = part(mass, velocity)
     values = weights.getArray()
     values[:] = np.where(_higher(solver, spaces), a.getDiagonal().getArray(), values)
     laplacian, y = _laplacian(PETSc, c, weights)
     laplacian.axpy(-1.0, d, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    inverse = _mass_inverse(solver, spaces, materials, dt)
+    solver.keep += [a, c, d, weights, y, laplacian]
+    context = SchurPreconditioner(PETSc, laplacian, None, None, solver.ksp.getOptionsPrefix() + "schur_laplacian_",
+                                  mass=inverse)
+    pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
+    pc.setType("python")
+    pc.setPythonContext(context)
+    return context
+
+
+def _mass_inverse(solver, spaces: Spaces, materials: Materials, dt: float):
+    """M̃⁻¹ of the module's docstring: a KSP under ``schur_mass_`` on the weighted mass."""
     weighted = _weighted_mass(solver, spaces, materials, dt)
-    inverse = PETSc.KSP().create(comm=solver.comm)
+    inverse = solver.PETSc.KSP().create(comm=solver.comm)
     inverse.setOptionsPrefix(solver.ksp.getOptionsPrefix() + "schur_mass_")
     inverse.setOperators(weighted)
     inverse.setFromOptions()
     inverse.setUp()
-    solver.keep += [a, c, d, weights, y, laplacian, weighted, inverse]
-    context = SchurPreconditioner(PETSc, laplacian, None, None, solver.ksp.getOptionsPrefix() + "schur_laplacian_",
-                                  mass=inverse)
+    solver.keep += [weighted, inverse]
+    return inverse
+
+
+def _joint_lsc(solver, spaces: Spaces, a, c, d, mass=None) -> SchurPreconditioner:
+    """The joint least-squares commutator over (p, ŝ): S⁻¹ ≈ −L⁻¹ (Yᵀ A Y + D) L⁻¹, L = C Y + D, Y = diag(A)⁻¹ Cᵀ,
+    its middle factor corrected on the higher dofs as `petsc_schur`'s (``schur_approximation = "joint-lsc"``)."""
+    PETSc, structure = solver.PETSc, solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+    laplacian, y = _laplacian(PETSc, c, a.getDiagonal())
+    middle = _galerkin(PETSc, a, y)
+    if spaces.family == "mini" or spaces.order == 1:
+        _correct(solver, middle, a, c, y, spaces)
+    laplacian.axpy(-1.0, d, structure=structure)
+    middle.axpy(-1.0, d, structure=structure)
+    solver.keep += [a, c, d, y, laplacian, middle]
+    context = SchurPreconditioner(PETSc, laplacian, middle, None, solver.ksp.getOptionsPrefix() + "schur_laplacian_",
+                                  mass=mass)
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
     pc.setType("python")
     pc.setPythonContext(context)
