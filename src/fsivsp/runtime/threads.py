@@ -115,7 +115,7 @@ THREADS_MIN_DOFS = 50_000
 #: its step is the factors' forward and backward substitution, memory-bound, which MKL does not parallelise, beside
 #: products that are short in 2D; the paper's level 4 (72 339 unknowns) stepped 0.91–0.92× as fast on two threads
 #: (BENCHMARKS.md, "Threads") and `fsivsp paper --dt 1e-3 --levels 4-4` (1 000 steps) took 36.0 s against 34.8 s
-#: with ``--threads 1``: the set-up's gain (0.49 → 0.30 s) is repaid within 200 steps. 3D factorisations (their
+#: with ``--threads 1``: the set-up's gain (0.49 → 0.30 s) is lost again after about 160 steps. 3D factorisations (their
 #: set-up 1.8× on two threads, their step 1.00–1.14×) and PETSc keep the count.
 ONE_THREAD = {(2, "direct")}
 

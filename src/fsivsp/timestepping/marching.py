@@ -102,8 +102,8 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
                                           products[(j - 1) % 2] if products and j > 1 else None)
 
     def start(j: int) -> ngs.BaseVector:
-        """Step j's start, 2xⁿ − xⁿ⁻¹ (`warmstart`) with xⁿ, xⁿ⁻¹ the solutions of steps j − 1, j − 2 (the scheme's
-        before step 2 is accepted: formed before the second thread accepts step 1), or xⁿ."""
+        """Step j's start (`warmstart`): 2xⁿ − xⁿ⁻¹ from this loop's solutions of steps j − 1 and j − 2, or xⁿ;
+        for j = 2, xⁿ⁻¹ is the scheme's own, read before the second thread accepts step 1 over it."""
         if j == 1:
             return scheme.guess()
         older = scheme.latest() if j == 2 else solutions[j % 2]
