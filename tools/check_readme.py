@@ -27,7 +27,7 @@ from pathlib import Path
 
 #: Regular expressions of the README commands documented as taking minutes (tests/test_readme.py checks that
 #: they cover the fsivsp commands it only parses).
-LONG = [r"^make test\b", r"large_ball_3d\.toml", r"fsivsp matrix\b"]
+LONG = [r"^make test\b", r"large_ball_3d\.toml", r"artery_3d\.toml", r"fsivsp matrix\b"]
 
 
 def readme_commands(text: str) -> list[str]:
