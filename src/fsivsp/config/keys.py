@@ -93,7 +93,8 @@ KEYS: list[Key] = [
     Key('discretisation', ('threads',), 'the cores',
         "threads for assembly, set-up and solves (NGSolve's TaskManager, MKL): by default `FSIVSP_THREADS` if set, "
         'else the cores this process may use, divided among the MPI ranks on the node, and one thread for a problem '
-        'below 50 000 free unknowns per rank (where more do not pay); `--threads N` on `run`, `study`, `paper`, '
+        'below 50 000 free unknowns per rank and for a 2D factorisation at any size (where more do not pay); '
+        '`--threads N` on `run`, `study`, `paper`, '
         '`matrix` overrides it; bit-identical runs for a given count ([docs/solvers.md](solvers.md#threads))'),
     Key('solver', ('petsc',), 'none',
         'a table of PETSc options for `solver = "petsc"` (or `"iterative"`), without the leading dash, e.g. '
