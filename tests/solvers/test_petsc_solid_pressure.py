@@ -4,26 +4,15 @@ import dataclasses
 from pathlib import Path
 
 import pytest
+from support.incompressible import counts, incompressible
 
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import study
 from fsivsp.solvers import petsc_available
 
 pytestmark = pytest.mark.skipif(petsc_available() is not None, reason=str(petsc_available()))
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
-
-
-def incompressible(case, steps: int = 3):
-    """``case`` at λ/μ = 10⁴ with a solid pressure, ``steps`` steps, PETSc at 1e-12."""
-    m = case.materials
-    case = dataclasses.replace(case, materials=dataclasses.replace(m, lam=1e4 * m.mu), T=steps * case.dt)
-    return case.with_discretisation(solid_pressure="continuous").with_solver(method="petsc", tolerance=1e-12)
-
-
-def counts(case, levels):
-    return [r["iterations"]["mean"] for r in study(case, levels)]
 
 
 def test_iterations_flat_in_2d():

@@ -55,12 +55,8 @@ def joint_pressure_block(solver, spaces: Spaces, materials: Materials, dt: float
     laplacian.axpy(-1.0, d, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
     inverse = _mass_inverse(solver, spaces, materials, dt)
     solver.keep += [a, c, d, weights, y, laplacian]
-    context = SchurPreconditioner(PETSc, laplacian, None, None, solver.ksp.getOptionsPrefix() + "schur_laplacian_",
-                                  mass=inverse)
-    pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
-    pc.setType("python")
-    pc.setPythonContext(context)
-    return context
+    return _on_schur(solver, SchurPreconditioner(PETSc, laplacian, None, None,
+                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=inverse))
 
 
 def _mass_inverse(solver, spaces: Spaces, materials: Materials, dt: float):
@@ -86,8 +82,12 @@ def _joint_lsc(solver, spaces: Spaces, a, c, d, mass=None) -> SchurPreconditione
     laplacian.axpy(-1.0, d, structure=structure)
     middle.axpy(-1.0, d, structure=structure)
     solver.keep += [a, c, d, y, laplacian, middle]
-    context = SchurPreconditioner(PETSc, laplacian, middle, None, solver.ksp.getOptionsPrefix() + "schur_laplacian_",
-                                  mass=mass)
+    return _on_schur(solver, SchurPreconditioner(PETSc, laplacian, middle, None,
+                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=mass))
+
+
+def _on_schur(solver, context: SchurPreconditioner) -> SchurPreconditioner:
+    """``context`` as the preconditioner of the fieldsplit's Schur complement."""
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
     pc.setType("python")
     pc.setPythonContext(context)
