@@ -48,12 +48,15 @@ def test_memory_within_a_factor_1_5_of_the_peak(tmp_path, example, refine, discr
     ("fluid_in_solid_2d.toml", 1, 'family = "taylor_hood"\norder = 3'),
     ("fluid_over_solid_3d.toml", 2, 'family = "mini"'),                    # fluid and solid walls
     ("solid_in_fluid_3d.toml", 2, 'family = "taylor_hood"\ncurved = false'),  # locked cells along the box's edges
-], ids=["tube-2d-mini", "box-2d-th1", "disk-2d-th3", "box-3d-mini", "ball-3d-th1"])
+    ("pressure_wave_2d.toml", 2, 'family = "mini"\nsolid_pressure = "continuous"'),   # bubbles on every cell
+    ("fluid_in_solid_2d.toml", 1, 'family = "taylor_hood"\norder = 2\nsolid_pressure = "continuous"'),
+], ids=["tube-2d-mini", "box-2d-th1", "disk-2d-th3", "box-3d-mini", "ball-3d-th1", "tube-2d-mini-solid-pressure",
+        "disk-2d-th2-solid-pressure"])
 def test_unknowns_and_cells_of_the_refined_mesh(tmp_path, example, refine, discretisation):
     """Counted from the mesh before refinement (`estimate.Entities`), the refined mesh's cells and free unknowns,
     exactly as its spaces have them."""
     from fsivsp.config.boundaries import boundary_conditions, dirichlet
-    from fsivsp.fem.spaces import build_spaces
+    from fsivsp.fem.spaces import build_spaces, resolve_solid_pressure
 
     case = tmp_path / "case.toml"
     case.write_text(case_text(example, refine, discretisation, 1))
@@ -62,7 +65,9 @@ def test_unknowns_and_cells_of_the_refined_mesh(tmp_path, example, refine, discr
     walls = dirichlet(boundary_conditions(built.boundaries, built.mesh, built.dim))
     disc = built.discretisation
     assert figures.cells == built.mesh.ne
-    assert figures.unknowns == build_spaces(built.mesh, disc.family, disc.order, walls, built.phases).free_dofs()
+    solid_pressure = resolve_solid_pressure(disc.solid_pressure, built.materials, built.phases)
+    spaces = build_spaces(built.mesh, disc.family, disc.order, walls, built.phases, solid_pressure=solid_pressure)
+    assert figures.unknowns == spaces.free_dofs()
 
 
 def test_output_estimate_within_a_factor_2_of_the_files(tmp_path):

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..config.case import CaseError
-from ..geometry import FLUID
+from ..geometry import FLUID, SOLID
 from ..runtime import parallel
 
 log = logging.getLogger(__name__)
@@ -132,26 +132,29 @@ def _interior(p: int, dim: int) -> np.ndarray:
 @dataclass(frozen=True)
 class Entities:
     """A mesh's vertices, edges, (3D) faces and cells, each counted as (all, in a fluid cell, on a Dirichlet
-    boundary) in ``counts`` (rows in that order of dimension), and its fluid cells with a vertex on a Dirichlet
-    boundary, as many of each kind as ``walled`` says (`_kind`), which give Taylor–Hood's bubbles on locked cells
-    (`geometry.locked_fluid_cells`)."""
+    boundary, in a solid cell) in ``counts`` (rows in that order of dimension), and its fluid cells with a vertex on
+    a Dirichlet boundary, as many of each kind as ``walled`` says (`_kind`), which give Taylor–Hood's bubbles on
+    locked cells (`geometry.locked_fluid_cells`)."""
 
     dim: int
     counts: np.ndarray
     walled: Counter
 
     @classmethod
-    def of(cls, mesh, dirichlet: str, fluid: str = FLUID) -> Entities:
-        """The counts of ``mesh`` (serial; ``fluid``: the fluid's region pattern), from the dofs of H1 spaces of
-        orders 1 to d, which have `_interior` dofs per entity (all: every dof; fluid: the free dofs of the space on
-        the fluid; Dirichlet: the dofs that are not free)."""
+    def of(cls, mesh, dirichlet: str, fluid: str = FLUID, solid: str = SOLID) -> Entities:
+        """The counts of ``mesh`` (serial; ``fluid``, ``solid``: the media's region patterns), from the dofs of H1
+        spaces of orders 1 to d, which have `_interior` dofs per entity (all: every dof; fluid, solid: the free dofs
+        of the space on the medium; Dirichlet: the dofs that are not free)."""
         import ngsolve as ngs
 
         dim, found = mesh.dim, []
         for order in range(1, mesh.dim + 1):
             plain, wet = ngs.H1(mesh, order=order, dirichlet=dirichlet), ngs.H1(mesh, order=order, definedon=fluid)
-            found.append([plain.ndof, wet.FreeDofs().NumSet(), plain.ndof - plain.FreeDofs().NumSet()])
-        cells = [mesh.ne, ngs.L2(mesh, order=0, definedon=fluid).FreeDofs().NumSet(), 0]
+            dry = ngs.H1(mesh, order=order, definedon=solid)
+            found.append([plain.ndof, wet.FreeDofs().NumSet(), plain.ndof - plain.FreeDofs().NumSet(),
+                          dry.FreeDofs().NumSet()])
+        cells = [mesh.ne, ngs.L2(mesh, order=0, definedon=fluid).FreeDofs().NumSet(), 0,
+                 ngs.L2(mesh, order=0, definedon=solid).FreeDofs().NumSet()]
         shares = np.array([_interior(order, dim)[:dim] for order in range(1, dim + 1)])   # orders × entities
         counts = np.vstack([np.linalg.solve(shares, np.array(found, dtype=float)).round(), cells])
         return cls(dim, counts.astype(np.int64), _walled_cells(mesh, dirichlet, fluid))
@@ -182,15 +185,17 @@ class Entities:
         """The fluid cells with every vertex on a Dirichlet boundary."""
         return sum(number for (_, corners, _), number in self.walled.items() if all(corners))
 
-    def unknowns(self, family: str, order: int) -> int:
+    def unknowns(self, family: str, order: int, solid_pressure: bool = False) -> int:
         """The free dofs of X_h (`fem.spaces.build_spaces`): d components of V_h (continuous P_{k+1}, or P1 and a
-        bubble per fluid cell for MINI) without its Dirichlet dofs, and Q_h (continuous P_k on the fluid)."""
+        bubble per fluid cell for MINI, per cell with a ``solid_pressure``) without its Dirichlet dofs, Q_h
+        (continuous P_k on the fluid) and with a ``solid_pressure`` P_h (continuous P_k on the solid)."""
         from ..fem.spaces import base_order
 
-        base, fluid_cells = base_order(family, order), self.counts[-1, 1]
+        base, cells = base_order(family, order), self.counts[-1, 0 if solid_pressure else 1]
         velocity = _interior(base, self.dim) @ (self.counts[:, 0] - self.counts[:, 2])
-        bubbles = fluid_cells if family == "mini" else self.locked if base < self.dim + 1 else 0
-        pressure = _interior(1 if family == "mini" else order, self.dim) @ self.counts[:, 1]
+        bubbles = cells if family == "mini" else self.locked if base < self.dim + 1 else 0
+        shares = _interior(1 if family == "mini" else order, self.dim)
+        pressure = shares @ self.counts[:, 1] + (shares @ self.counts[:, 3] if solid_pressure else 0)
         return int(self.dim * (velocity + bubbles) + pressure)
 
 
@@ -263,7 +268,7 @@ def entities(case) -> Entities:
     from ..config.boundaries import boundary_conditions, dirichlet
 
     walls = dirichlet(boundary_conditions(case.boundaries, case.mesh, case.dim))
-    return Entities.of(case.mesh, walls, case.phases.pattern(FLUID)).refined(case.refine)
+    return Entities.of(case.mesh, walls, case.phases.pattern(FLUID), case.phases.pattern(SOLID)).refined(case.refine)
 
 
 def power_law(table: dict, dim: int, solver: str, unknowns: int) -> float:
@@ -314,10 +319,12 @@ def output_bytes(case, unknowns: int, cells: int) -> int:
 def estimate(case) -> Estimate:
     """Every figure of ``case``'s run, from its mesh before its ``refine`` refinements (under mpirun on rank 0,
     whose mesh it is)."""
+    from ..fem.spaces import resolve_solid_pressure
     from ..solvers import solver_kind
 
-    found = entities(case)
-    unknowns, cells = found.unknowns(case.discretisation.family, case.discretisation.order), int(found.counts[-1, 0])
+    found, disc = entities(case), case.discretisation
+    solid_pressure = resolve_solid_pressure(disc.solid_pressure, case.materials, case.phases) == "continuous"
+    unknowns, cells = found.unknowns(disc.family, disc.order, solid_pressure), int(found.counts[-1, 0])
     solver, ranks = solver_kind(case.solver, unknowns, case.dim), parallel.size()
     return Estimate(unknowns, cells, solver, memory_bytes(case, unknowns, cells, solver),
                     power_law(SECONDS_PER_STEP, case.dim, solver, unknowns) / ranks, case.steps,
