@@ -132,17 +132,6 @@ def harmonic_matrix(spaces: Spaces, materials: Materials, s: complex,
     return forms.step_matrix(spaces, materials, 1 / s, supports).Assemble().mat
 
 
-class _Factors:
-    """The solve of a factorisation of A as `solvers.base.StepSolver` has it (for `WoodburySolver`)."""
-
-    def __init__(self, inverse: ngs.BaseMatrix):
-        self.inverse = inverse
-
-    def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector, guess=None) -> None:
-        out.data = boundary
-        self.inverse.MultAdd(1.0, rhs, out)
-
-
 def respond(spaces: Spaces, materials: Materials, amplitudes: Amplitudes, s: complex,
             method: str | None = None) -> Response:
     """(v̂, p̂) at ``s`` (s = 2πif for the frequency f): x = ĝ + A_ff⁻¹(f̂/s − A ĝ) with A = `harmonic_matrix`,
@@ -153,8 +142,7 @@ def respond(spaces: Spaces, materials: Materials, amplitudes: Amplitudes, s: com
     free = spaces.mixed.FreeDofs()
     factors = factorise(matrix, free, method)
     weights = [outlet.impedance(s) / s for outlet in amplitudes.outlets.values()]
-    solver = (WoodburySolver(_Factors(factors.inverse), amplitudes.fluxes, weights, free) if weights
-              else _Factors(factors.inverse))
+    solver = WoodburySolver(factors, amplitudes.fluxes, weights, free) if weights else factors
     state = ngs.GridFunction(spaces.mixed)
     rhs = amplitudes.load.CreateVector()
     rhs.data = (1 / s) * amplitudes.load - matrix * amplitudes.boundary
