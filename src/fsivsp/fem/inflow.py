@@ -59,12 +59,10 @@ def flux_vector(spaces: Spaces, name: str, sign: float = 1.0) -> ngs.BaseVector:
 
 class FlowInflow:
     """The Dirichlet values of a flow-rate inflow on boundary ``name`` (the module's docstring) and their lifts
-    under ``matrix``: ``values`` and ``lift`` (`Separated`; None without a matrix); ``inward`` is −c, so that
-    ``inward``ᵀx is the inflow.
+    under ``matrix``: ``values`` and ``lift`` (`Separated`); ``inward`` is −c, so that ``inward``ᵀx is the inflow.
     ``rho``, ``nu``: the fluid's (Womersley)."""
 
-    def __init__(self, spaces: Spaces, name: str, rate: FlowRate, matrix: ngs.BaseMatrix | None, rho: float,
-                 nu: float):
+    def __init__(self, spaces: Spaces, name: str, rate: FlowRate, matrix: ngs.BaseMatrix, rho: float, nu: float):
         self.spaces, self.name, self.rate = spaces, name, rate
         self.flow = rate.function()
         self.section: Section = detect_section(spaces.mesh, name)
@@ -79,8 +77,7 @@ class FlowInflow:
         # vectors: Re W_0, then Re W_k, Im W_k for k ≥ 1 (W_0 is real)
         self._vectors = [shapes[0][0]] + [part for shape in shapes[1:] for part in shape]
         self.values = Separated(self._vectors, self.factors)
-        self.lift = (None if matrix is None
-                     else Separated([self._image(matrix, v) for v in self._vectors], self.factors))
+        self.lift = Separated([self._image(matrix, v) for v in self._vectors], self.factors)
 
     def factors(self, time: float) -> list[float]:
         """The T_j(time) of g = Σ T_j G_j: Q(t) − Σ_{k≥1} Re a_k on W_0 (the series' mean and the remainder

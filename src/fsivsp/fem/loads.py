@@ -56,9 +56,9 @@ def region_facets(spaces: Spaces) -> dict[str, ngs.GridFunction]:
 
 class Loads:
     """Σ w_j f(t_j) and the Dirichlet values g(t) with their lifts A g(t) under the step matrix A
-    (``matrix``; None: no lifts, `add_to` only with ``lift=False``); ``dirichlet`` are the g(t) (each dof owned by
-    the first boundary naming it; a flow-rate inflow's (`inflows`, each a `FlowInflow`, its profile with the
-    ``materials`` of the fluid next to it) by no other)."""
+    (``matrix``; None: no lifts, `add_to` only with ``lift=False``, and no flow-rate inflow); ``dirichlet`` are the
+    g(t) (each dof owned by the first boundary naming it; a flow-rate inflow's (`inflows`, each a `FlowInflow`, its
+    profile with the ``materials`` of the fluid next to it) by no other)."""
 
     def __init__(self, spaces: Spaces, data: Data, matrix: ngs.BaseMatrix | None, materials: Materials = Materials()):
         self.spaces, self.data, self._matrix = spaces, data, matrix
@@ -70,8 +70,7 @@ class Loads:
             self.inflows[name] = FlowInflow(spaces, name, rate, matrix, fluid.rho_fluid, fluid.nu)
         for inflow in self.inflows.values():
             self.dirichlet.append(inflow.values)
-            if matrix is not None:
-                self._lifts.append(inflow.lift)
+            self._lifts.append(inflow.lift)
 
     def add_to(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, loads: list[tuple[float, float]],
                time: float, lift: bool = True) -> None:
