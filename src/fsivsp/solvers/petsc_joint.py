@@ -32,7 +32,7 @@ from ..fem import forms
 from ..fem.spaces import Spaces
 from ..geometry import SOLID
 from ..model.materials import Materials
-from .petsc_schur import SchurPreconditioner, _correct, _galerkin, _laplacian, _masses, part
+from .petsc_schur import SchurPreconditioner, commutator, higher_rows, install, masses, part, pressure_laplacian
 from .sparse import to_scipy_csr
 
 
@@ -47,15 +47,15 @@ def joint_pressure_block(solver, spaces: Spaces, materials: Materials, dt: float
     if name.startswith("joint-lsc"):
         mass = _mass_inverse(solver, spaces, materials, dt) if name == "joint-lsc-mass" else None
         return _joint_lsc(solver, spaces, a, c, d, mass)
-    mass, _ = _masses(solver, spaces, materials)
+    mass, _ = masses(solver, spaces, materials)
     weights = part(mass, velocity)
     values = weights.getArray()
-    values[:] = np.where(_higher(solver, spaces), a.getDiagonal().getArray(), values)
-    laplacian, y = _laplacian(PETSc, c, weights)
+    values[:] = np.where(higher_rows(solver, spaces), a.getDiagonal().getArray(), values)
+    laplacian, y = pressure_laplacian(PETSc, c, weights)
     laplacian.axpy(-1.0, d, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
     inverse = _mass_inverse(solver, spaces, materials, dt)
     solver.keep += [a, c, d, weights, y, laplacian]
-    return _on_schur(solver, SchurPreconditioner(PETSc, laplacian, None, None,
+    return install(solver, SchurPreconditioner(PETSc, laplacian, None, None,
                                                  solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=inverse))
 
 
@@ -75,29 +75,12 @@ def _joint_lsc(solver, spaces: Spaces, a, c, d, mass=None) -> SchurPreconditione
     """The joint least-squares commutator over (p, ŝ): S⁻¹ ≈ −L⁻¹ (Yᵀ A Y + D) L⁻¹, L = C Y + D, Y = diag(A)⁻¹ Cᵀ,
     its middle factor corrected on the higher dofs as `petsc_schur`'s (``schur_approximation = "joint-lsc"``)."""
     PETSc, structure = solver.PETSc, solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
-    laplacian, y = _laplacian(PETSc, c, a.getDiagonal())
-    middle = _galerkin(PETSc, a, y)
-    if spaces.family == "mini" or spaces.order == 1:
-        _correct(solver, middle, a, c, y, spaces)
+    laplacian, middle, y = commutator(solver, spaces, a, c)
     laplacian.axpy(-1.0, d, structure=structure)
     middle.axpy(-1.0, d, structure=structure)
     solver.keep += [a, c, d, y, laplacian, middle]
-    return _on_schur(solver, SchurPreconditioner(PETSc, laplacian, middle, None,
+    return install(solver, SchurPreconditioner(PETSc, laplacian, middle, None,
                                                  solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=mass))
-
-
-def _on_schur(solver, context: SchurPreconditioner) -> SchurPreconditioner:
-    """``context`` as the preconditioner of the fieldsplit's Schur complement."""
-    pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
-    pc.setType("python")
-    pc.setPythonContext(context)
-    return context
-
-
-def _higher(solver, spaces: Spaces) -> np.ndarray:
-    """Which of this rank's velocity rows are higher-order dofs (bubbles, edges, faces: not a vertex's)."""
-    scalar = spaces.velocity.ndof // spaces.mesh.dim
-    return solver.layout.velocity_masters % scalar >= spaces.mesh.nv
 
 
 def _weighted_mass(solver, spaces: Spaces, materials: Materials, dt: float):

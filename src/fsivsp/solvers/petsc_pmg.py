@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fem.spaces import Spaces
+from .petsc_schur import higher_rows
 
 #: The smoother and the coarse solve (keys under the solver's prefix; `petsc.DEFAULTS_PMG`).
 SMOOTH = "velocity_pmg_smooth_"
@@ -64,8 +65,7 @@ def vertex_rows(solver, spaces: Spaces) -> np.ndarray:
     """The global numbers (within the velocity field) of this rank's velocity rows that are vertex dofs of V_h (the
     P1 hat functions). Under MPI a rank's rows are not its master dofs (`petsc_layout`): the marks travel by a field
     vector."""
-    scalar = spaces.velocity.ndof // spaces.mesh.dim
-    marks = solver.field_vector((solver.layout.velocity_masters % scalar < spaces.mesh.nv).astype(float))
+    marks = solver.field_vector((~higher_rows(solver, spaces)).astype(float))
     start = marks.getOwnershipRange()[0]
     rows = start + np.flatnonzero(marks.getArray(readonly=True) > 0.5)
     marks.destroy()

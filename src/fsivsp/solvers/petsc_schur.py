@@ -67,27 +67,38 @@ def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> S
     a = solver.A.createSubMatrix(velocity, velocity)
     c = solver.A.createSubMatrix(pressure, velocity)
     if solver.options["schur_approximation"] == "lsc":
-        diagonal = a.getDiagonal()
-        laplacian, y = _laplacian(PETSc, c, diagonal)
-        middle = _galerkin(PETSc, a, y)
-        if spaces.family == "mini" or spaces.order == 1:
-            _correct(solver, middle, a, c, y, spaces)
+        laplacian, middle, y = commutator(solver, spaces, a, c)
         weight = None
     else:
-        mass, pmass = _masses(solver, spaces, materials)
-        laplacian, y = _laplacian(PETSc, c, part(mass, velocity))
+        mass, pmass = masses(solver, spaces, materials)
+        laplacian, y = pressure_laplacian(PETSc, c, part(mass, velocity))
         weight, middle = part(pmass, pressure), None
         weight.reciprocal()
         weight.scale(1 / dt)
     solver.keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
-    context = SchurPreconditioner(PETSc, laplacian, middle, weight, solver.ksp.getOptionsPrefix() + "schur_laplacian_")
+    return install(solver, SchurPreconditioner(PETSc, laplacian, middle, weight,
+                                               solver.ksp.getOptionsPrefix() + "schur_laplacian_"))
+
+
+def install(solver, context: SchurPreconditioner) -> SchurPreconditioner:
+    """``context`` as the preconditioner of the fieldsplit's Schur complement."""
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[1].getPC()
     pc.setType("python")
     pc.setPythonContext(context)
     return context
 
 
-def _laplacian(PETSc, c, diagonal):
+def commutator(solver, spaces: Spaces, a, c):
+    """(C Y, Yᵀ A Y, Y), Y = diag(A)⁻¹ Cᵀ: the least-squares commutator's Laplacian and middle factor, the middle
+    factor corrected on the higher dofs for MINI and Taylor–Hood k = 1 (`correct_higher`)."""
+    laplacian, y = pressure_laplacian(solver.PETSc, c, a.getDiagonal())
+    middle = galerkin(solver.PETSc, a, y)
+    if spaces.family == "mini" or spaces.order == 1:
+        correct_higher(solver, middle, a, c, y, spaces)
+    return laplacian, middle, y
+
+
+def pressure_laplacian(PETSc, c, diagonal):
     """(C Y, Y) with Y = diag(``diagonal``)⁻¹ Cᵀ: the pressure Laplacian of the discrete divergence."""
     y = c.transpose(PETSc.Mat())
     inverse = diagonal.copy()
@@ -96,19 +107,24 @@ def _laplacian(PETSc, c, diagonal):
     return c.matMult(y), y
 
 
-def _galerkin(PETSc, a, y):
+def galerkin(PETSc, a, y):
     """Yᵀ A Y as Yᵀ (A Y), Yᵀ made explicitly: each rank forms its rows' entries alone, in one order, so that runs
     on the same ranks round alike. PETSc's ``ptap`` sums the ranks' contributions to a row in the order they arrive
     (3 ranks: 1 run in 3 differed from the others at round-off, so a resumed run was not the uninterrupted one)."""
     return y.transpose(PETSc.Mat()).matMult(a.matMult(y))
 
 
-def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
+def higher_rows(solver, spaces: Spaces) -> np.ndarray:
+    """Which of this rank's velocity rows are higher-order dofs (bubbles, edges, faces: not a vertex's)."""
+    scalar = spaces.velocity.ndof // spaces.mesh.dim
+    return solver.layout.velocity_masters % scalar >= spaces.mesh.nv
+
+
+def correct_higher(solver, middle, a, c, y, spaces: Spaces) -> None:
     """The corrected commutator (the module's docstring): the higher dofs' term Y_hᵀ A Y_h of the
     middle factor replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (in place)."""
-    L, structure = solver.layout, solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
-    scalar = spaces.velocity.ndof // spaces.mesh.dim
-    higher = L.velocity_masters % scalar >= spaces.mesh.nv
+    structure = solver.PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN
+    higher = higher_rows(solver, spaces)
     if not parallel.total(np.array([higher.sum()]))[0]:
         return
     y_h = y.copy()
@@ -119,11 +135,11 @@ def _correct(solver, middle, a, c, y, spaces: Spaces) -> None:
     values[:] = np.where(values > 0, 1.0 / np.where(values > 0, values, 1.0), 0.0)
     scaled = f_h.copy()
     scaled.diagonalScale(L=scale)
-    middle.axpy(-1.0, _galerkin(solver.PETSc, a, y_h), structure=structure)
+    middle.axpy(-1.0, galerkin(solver.PETSc, a, y_h), structure=structure)
     middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
 
 
-def _masses(solver, spaces: Spaces, materials: Materials):
+def masses(solver, spaces: Spaces, materials: Materials):
     """The diagonals of the velocity mass ρM and the pressure mass M_p/(2ν) as PETSc vectors (PETSc's order)."""
     X = spaces.mixed
     (_, p), (_, q) = forms.trial_test(spaces)
