@@ -27,9 +27,9 @@ def extrapolates(time_scheme, n: int) -> bool:
 
 
 def takes_start(solver) -> bool:
-    """Whether the step solver ``solver`` (or the base of a Woodbury solver around it) starts from a guess: PETSc's
-    Krylov methods do; a factorisation and PETSc's MUMPS (``preonly``, which PETSc starts from zero) do not."""
-    ksp = getattr(getattr(solver, "base", solver), "ksp", None)
+    """Whether the step solver ``solver`` (a Woodbury solver passes its base's attributes on) starts from a guess:
+    PETSc's Krylov methods do; a factorisation and PETSc's MUMPS (``preonly``, which PETSc starts from zero) do not."""
+    ksp = getattr(solver, "ksp", None)
     return ksp is not None and bool(ksp.getInitialGuessNonzero())
 
 
