@@ -193,10 +193,9 @@ def _boundaries(table: dict, dim: int, command: str) -> tuple[dict[str, tuple[st
         if kind in ("velocity", "traction") and command == "harmonic":
             amplitude(plain[name][kind], f"boundary.{name}.{kind}", dim)
         if kind in ("resistance", "windkessel") and value.distal_pressure != 0:
-            where = f"boundary.{name}.{kind}" + (".distal_pressure" if kind == "windkessel" else "")
-            raise expected(where if kind == "windkessel" else f"boundary.{name}.distal_pressure",
-                           "0 in `fsivsp harmonic` (a constant pressure does not oscillate: give an oscillating one "
-                           "as a traction)", value.distal_pressure)
+            where = f"boundary.{name}." + ("windkessel." if kind == "windkessel" else "")
+            raise expected(where + "distal_pressure", "0 in `fsivsp harmonic` (a constant pressure does not "
+                           "oscillate: give an oscillating one as a traction)", value.distal_pressure)
     return boundaries, phases
 
 
