@@ -29,7 +29,7 @@ def test_woodbury_solves_the_assembled_system():
     update = (c @ sp.diags(run.solver.weights) @ c.T).tocsr()
     g = boundary.FV().NumPy()
     b = rhs.FV().NumPy()[free] - (update @ g)[free]  # the right-hand side is lifted by A g, not by the updates
-    matrix = to_scipy_csr(run._matrix)
+    matrix = to_scipy_csr(run.step_matrix)
     updated = (matrix + update)[np.ix_(free, free)]
     x = raw.FV().NumPy()[free]
     assert np.linalg.norm(updated @ x - b) <= 1e-11 * np.linalg.norm(b)

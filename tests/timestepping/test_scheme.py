@@ -128,7 +128,7 @@ def test_the_step_matrix_is_factorised_once(spaces, monkeypatch, threaded, recor
     # the patches are live: the same calls outside the loop are seen
     forms.step_matrix(spaces, Materials(), 1e-2).Assemble()
     ngs.LinearForm(spaces.mixed).Assemble()
-    scheme._matrix.Inverse(spaces.mixed.FreeDofs())
+    scheme.step_matrix.Inverse(spaces.mixed.FreeDofs())
     assert calls == ["assemble", "assemble load", "inverse"]
 
 

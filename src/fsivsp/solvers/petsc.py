@@ -199,7 +199,7 @@ class PETScSolver:
         self.layout = L = layout(spaces, local)
         self._numbers = L.numbers.astype(PETSc.IntType)
         self._field = L.field.astype(PETSc.IntType)
-        self.A = self._matrix(local[L.local][:, L.local].tocsr())
+        self.A = self.petsc_matrix(local[L.local][:, L.local].tocsr())
         first, middle, stop = L.rows[0], L.velocity_rows[1], L.rows[1]
         self.fields = (PETSc.IS().createStride(middle - first, first, 1, comm=self.comm),
                        PETSc.IS().createStride(stop - middle, middle, 1, comm=self.comm))
@@ -255,7 +255,7 @@ class PETScSolver:
             times.append(time.perf_counter() - start)
         return min(times)
 
-    def _matrix(self, local):
+    def petsc_matrix(self, local):
         """The step matrix on the free dofs as a PETSc AIJ matrix from ``local``, this rank's matrix on its free
         dofs in PETSc's order (scipy CSR): serially itself; distributed a summand of the global matrix."""
         L = self.layout

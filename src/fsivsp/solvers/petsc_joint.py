@@ -94,7 +94,7 @@ def _weighted_mass(solver, spaces: Spaces, materials: Materials, dt: float):
     form.Assemble()
     local = to_scipy_csr(form.mat.local_mat if solver.distributed else form.mat)
     L = solver.layout
-    whole = solver._matrix(local[L.local][:, L.local].tocsr())
+    whole = solver.petsc_matrix(local[L.local][:, L.local].tocsr())
     block = whole.createSubMatrix(solver.fields[1], solver.fields[1])
     whole.destroy()
     return block

@@ -52,7 +52,7 @@ def step_cost(scheme, clock: StepClock, comm=None) -> dict:
     ``product_seconds`` (`product_seconds` of the step matrix, now) and ``matvec_ratio`` = step_seconds ÷
     product_seconds, with ``timed_steps``. Under mpirun (``comm``: the mesh's) every rank must call it; the times
     are the slowest rank's."""
-    product = product_seconds(scheme._matrix)
+    product = product_seconds(scheme.step_matrix)
     step = clock.seconds / clock.steps if clock.steps else None
     if comm is not None and comm.size > 1:
         product = comm.Max(product)

@@ -191,6 +191,11 @@ class Scheme:
             vectors["outlets"] = self._outlet_state
         return vectors
 
+    @property
+    def step_matrix(self) -> ngs.BaseMatrix:
+        """The step matrix A of (5.1) (its τ the run's), on X_h."""
+        return self._matrix
+
     def outlet_flows(self, x: ngs.BaseVector | None = None) -> list[float]:
         """Q = cᵀx through each outlet (x: the state (vⁿ, pⁿ) by default)."""
         x = self.state.vec if x is None else x
