@@ -422,14 +422,15 @@ def test_estimate_and_free_space_refusal_are_one_message(tmp_path, tiny_disk):
 
 @needs_mpi
 def test_modes_equal_serial(tmp_path):
-    """`fsivsp modes` on 2 ranks (SLEPc with complex scalars, MUMPS over the ranks): the same unknowns and the same
-    eigenvalues as serially to 1e-8 (measured 4e-13), their modes' VTU pieces as large; `fsivsp harmonic` (serial
+    """`fsivsp modes` on 2 ranks (SLEPc with complex scalars, MUMPS over the ranks; the mesh refined once where the
+    cells live): the same unknowns and the same eigenvalues as serially to 1e-8 (measured 4e-13), their modes' VTU pieces as large; `fsivsp harmonic` (serial
     only) refused in one line."""
     from support.frequency import LID
     from support.frequency import fsivsp as command
 
     case = tmp_path / "box.toml"
-    case.write_text(LID.split("[data]")[0] + "\n[modes]\ncount = 4\nnear = 1.5\n\n[output]\nvtk = true\n")
+    text = LID.split("[data]")[0].replace("maxh = 0.1\n", "maxh = 0.2\nrefine = 1\n")   # refined over the ranks
+    case.write_text(text + "\n[modes]\ncount = 4\nnear = 1.5\n\n[output]\nvtk = true\n")
     serial = command("modes", case, "--out", tmp_path / "serial", "--quiet")
     done = mpirun("modes", str(case), "--out", str(tmp_path / "mpi"), "--quiet")
     assert serial.returncode == 0 and done.returncode == 0, serial.stderr + done.stderr

@@ -13,7 +13,7 @@ from typing import Any
 
 from ..config.frequency import load_harmonic_case, load_modes_case
 from ..config.production import load_run_case, refine_over_ranks
-from ..geometry import distribute, shared_case
+from ..geometry import refined_part, shared_case
 from ..runtime import parallel
 from ..runtime.logs import reporting, stage
 from ..runtime.threads import using
@@ -91,8 +91,12 @@ def modes(case: str | Path | dict, out: str | Path | None = None, *, count: int 
     given = {key: value for key, value in (("modes.count", count), ("modes.near", near)) if value is not None}
     with reporting(not quiet):
         with stage("mesh"):
-            loaded = shared_case(load_modes_case, case, overrides={**(overrides or {}), **given})
-            loaded = replace(loaded, mesh=distribute(loaded.mesh))   # under mpirun: this rank's part
+            loaded = shared_case(load_modes_case, case, overrides={**(overrides or {}), **given},
+                                 coarse=parallel.distributed())
+        if parallel.distributed():   # rank 0 refines to a fair share, hands the mesh out, every rank refines its part
+            with stage("refinement"):
+                loaded = replace(loaded, mesh=refined_part(loaded.mesh, loaded.refine,
+                                                           loaded.discretisation.project_refinement), refine=0)
         out = Path(out) if out is not None else Path(loaded.path.stem)
         check_output_folder(out, "modes")
         loaded = _with_threads(loaded, threads, "modes")

@@ -22,9 +22,9 @@ from ..geometry import geometry_phases
 from ..model.expressions import T
 from ..runtime.logs import warn
 from .boundaries import BOUNDARY_KEYS, check_boundaries, read_boundaries
-from .case import Discretisation, read_discretisation, read_geometry, read_materials
+from .case import Discretisation, build_mesh, read_discretisation, read_geometry, read_materials
 from .overrides import case_document
-from .production import DATA_KEYS, OUTPUT_KEYS, RUN_SECTIONS, read_output, read_vector, refined_mesh
+from .production import DATA_KEYS, OUTPUT_KEYS, RUN_SECTIONS, read_output, read_vector, refine_count, refined_mesh
 from .readers import check_command, check_keys, section
 
 #: ``[harmonic]``: the frequencies, a list or a range {start, stop, count, spacing}.
@@ -87,10 +87,11 @@ class HarmonicCase(FrequencyCase):
 @dataclass(kw_only=True)
 class ModesCase(FrequencyCase):
     """`FrequencyCase` of ``fsivsp modes``: ``count`` oscillating modes nearest the frequency ``near`` (None: the
-    lowest)."""
+    lowest); ``refine``: uniform refinements of ``mesh`` still to make (`load_modes_case`'s ``coarse``)."""
 
     count: int
     near: float | None
+    refine: int = 0
 
 
 def read_frequencies(value: Any) -> list[float]:
@@ -221,9 +222,10 @@ def load_harmonic_case(source: str | Path | dict, overrides: dict | None = None)
                         phases=phases)
 
 
-def load_modes_case(source: str | Path | dict, overrides: dict | None = None) -> ModesCase:
+def load_modes_case(source: str | Path | dict, overrides: dict | None = None, coarse: bool = False) -> ModesCase:
     """Read and validate a modes case (any case file but a study's; ``overrides`` as `production.load_run_case`
-    takes them), its mesh built."""
+    takes them), its mesh built and refined, or with ``coarse`` its ``[geometry] refine`` left to the caller (under
+    mpirun: refined where the cells live, `geometry.refined_part`)."""
     path, doc = case_document(source, overrides)
     fields = _read(doc, path, "modes", overrides)
     table = section(doc, "modes", required=False)
@@ -239,7 +241,9 @@ def load_modes_case(source: str | Path | dict, overrides: dict | None = None) ->
               for name, (kind, values) in boundaries.items() if any(value != 0 for value in values)]
     loaded += [f"boundary.{name}.{PHASE}" for name in phases]
     warn_unused(doc, "modes", loaded)
-    mesh = refined_mesh(fields["geometry"], fields["dim"], fields["discretisation"].project_refinement)
+    refine = refine_count(fields["geometry"]) if coarse else 0
+    mesh = (build_mesh(fields["geometry"], fields["dim"], skip=("refine",)) if coarse
+            else refined_mesh(fields["geometry"], fields["dim"], fields["discretisation"].project_refinement))
     check_boundaries(boundaries, mesh, geometry_phases(fields["geometry"]["kind"], mesh))
     return ModesCase(**fields, mesh=mesh, boundaries=boundaries, count=count,
-                     near=None if near is None else float(near))
+                     near=None if near is None else float(near), refine=refine)
