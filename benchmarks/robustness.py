@@ -3,8 +3,11 @@ materials (issue 12's table; issue 22's for PETSc, with λ/μ = 10⁴ and Taylor
 "solid pressure" table, λ/μ = 10², 10⁴ with ``solid_pressure`` "none" and "continuous" in 2D and 3D).
 
 Each row: the case's manufactured data on its coarse mesh refined ``level`` times, ``--steps`` steps of the
-scheme with ``--solver`` at its default tolerance (no error norms), with the case's ``solid_pressure`` (default
-"auto": a solid pressure where λ ≥ 10 μ). ``--tables`` runs only the named tables (comma-separated).
+scheme with ``--solver`` at ``--tolerance`` (default 1e-12 of the right-hand side, the tables' basis since issue 12;
+``auto`` measures the auto tolerance), no error norms, with the case's ``solid_pressure`` (default "auto": a solid
+pressure where λ ≥ 10 μ). ``--tables`` runs only the named tables (comma-separated), ``--dt`` only these time steps
+of the "levels and time steps" table. Each record names the velocity block's preconditioner (BoomerAMG, SSOR where
+the mass dominates, the p-multigrid) and the stiffness ratio that chose it.
 
     python benchmarks/robustness.py --solver petsc --json benchmarks/robustness_petsc.json
     python benchmarks/robustness.py --solver iterative --json benchmarks/robustness.json
@@ -32,7 +35,7 @@ TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
 MAX_ITERATIONS = 20_000
 
 
-def iterations(case, level: int, steps: int, solver: str) -> dict:
+def iterations(case, level: int, steps: int, solver: str, tolerance: float | str = 1e-12) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     dirichlet = dirichlet_boundaries(mesh)
     solid_pressure = resolve_solid_pressure(case.discretisation.solid_pressure, case.materials)
@@ -42,7 +45,7 @@ def iterations(case, level: int, steps: int, solver: str) -> dict:
                              case.discretisation.initial_velocity)
     start = time.perf_counter()
     scheme = Scheme(spaces, case.materials, data, case.dt,
-                    solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS).solver)
+                    solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS, tolerance=tolerance).solver)
     scheme.march(steps)
     statistics = scheme.solver.statistics()
     return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
@@ -72,14 +75,14 @@ def solid_pressure_rows(max_level_2d: int, max_level_3d: int):
         yield "solid pressure", "solid_in_fluid_3d, Taylor–Hood k = 2, lam/mu = 1e+04, continuous", taylor_hood, level
 
 
-def rows(max_level_2d: int, max_level_3d: int):
-    """(table, label, case, level) for every row."""
-    for dt in TIME_STEPS:
+def rows(max_level_2d: int, max_level_3d: int, time_steps=TIME_STEPS):
+    """(table, label, case, level) for every row (the "levels and time steps" table at ``time_steps``)."""
+    for dt in time_steps:
         for level in range(max_level_2d + 1):
             yield "levels and time steps", "paper", paper_case(dt), level
     for example in ("fluid_in_solid_3d", "solid_in_fluid_3d", "fluid_over_solid_3d"):
         base = load_study_case(EXAMPLES / f"{example}.toml")
-        for dt in TIME_STEPS:
+        for dt in time_steps:
             for level in range(max_level_3d + 1):
                 yield "levels and time steps", example, dataclasses.replace(base, dt=dt), level
     solid = load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
@@ -110,19 +113,25 @@ def main() -> None:
     parser.add_argument("--max-level-3d", type=int, default=3)
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--tables", default=None, help="only these tables (comma-separated names)")
+    parser.add_argument("--dt", default=None, help="only these time steps (comma-separated)")
+    parser.add_argument("--tolerance", default="1e-12", help="1e-12 (the default), another number, or auto")
     args = parser.parse_args()
+    tolerance = args.tolerance if args.tolerance == "auto" else float(args.tolerance)
+    time_steps = TIME_STEPS if args.dt is None else tuple(float(dt) for dt in args.dt.split(","))
     tables = None if args.tables is None else set(args.tables.split(","))
     records = []
-    for table, label, case, level in rows(args.max_level_2d, args.max_level_3d):
+    for table, label, case, level in rows(args.max_level_2d, args.max_level_3d, time_steps):
         if tables is not None and table not in tables:
             continue
         record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
-                  **iterations(case, level, args.steps, args.solver)}
+                  **iterations(case, level, args.steps, args.solver, tolerance)}
         records.append(record)
         if args.json:
             write_json(args.json, records)   # as it goes: a long run keeps what it measured
         print(f"{table:22} {label:32} dt {case.dt:7.0e} level {level} dofs {record['dofs']:>7}  "
-              f"its mean {record['mean']:6.1f} max {record['max']:4d}  {record['seconds']:6.1f} s", flush=True)
+              f"its mean {record['mean']:6.1f} max {record['max']:4d}  {record['seconds']:6.1f} s  "
+              f"{record['preconditioner']['velocity']} (q {record['preconditioner'].get('stiffness_ratio')})",
+              flush=True)
     if args.json:
         write_json(args.json, records)
 

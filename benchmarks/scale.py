@@ -23,7 +23,12 @@ from pathlib import Path
 EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 
 
-def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict:
+def tolerance_value(text: str) -> float | str:
+    """``auto`` or a number."""
+    return text if text == "auto" else float(text)
+
+
+def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float | str) -> dict:
     """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
     import dataclasses
 
@@ -66,7 +71,7 @@ def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: 
             "peak_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024}
 
 
-def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float) -> dict | None:
+def child(level: int, solver: str, steps: int, maxh: float | None, tolerance: float | str) -> dict | None:
     """`measure` in a fresh process (None if it failed, e.g. out of memory)."""
     done = subprocess.run([sys.executable, __file__, "--child", f"{level}:{solver}:{steps}:{maxh}:{tolerance}"],
                           capture_output=True, text=True)
@@ -122,7 +127,8 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--direct-max", type=int, default=3, help="the highest level the direct solver runs")
     parser.add_argument("--maxh", type=float, default=None, help="the coarse ball's mesh size (default: the example's)")
-    parser.add_argument("--tolerance", type=float, default=1e-12, help="the iterative solver's tolerance")
+    parser.add_argument("--tolerance", type=tolerance_value, default="auto",
+                        help="the iterative solver's tolerance: auto (the default) or a number")
     parser.add_argument("--solvers", default="direct,iterative,petsc", help="comma-separated solver names")
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--plot", type=Path, default=None)
@@ -131,7 +137,7 @@ def main() -> None:
     if args.child:
         level, solver, steps, maxh, tolerance = args.child.split(":")
         print(json.dumps(measure(int(level), solver, int(steps), None if maxh == "None" else float(maxh),
-                                 float(tolerance))))
+                                 tolerance_value(tolerance))))
         return
     low, high = (int(x) for x in args.levels.split("-"))
     rows = []

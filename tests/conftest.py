@@ -19,6 +19,7 @@ from fsivsp.config.case import load_study_case
 from fsivsp.experiments.study import study
 from fsivsp.fem import forms
 from fsivsp.geometry import FLUID, paper_channel, refined
+from fsivsp.solvers import AUTO, TOLERANCE
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 
@@ -60,10 +61,12 @@ def example():
 @pytest.fixture
 def same_errors():
     """``same_errors(case, levels, method="petsc", rtol=1e-6)``: study ``case`` with the direct solver and with
-    ``method``; assert equal error norms on every level; return ``method``'s records (their solver PETSc's)."""
+    ``method`` (at the case's tolerance if it sets a number, else 1e-12: the solver's, not the auto tolerance's,
+    accuracy); assert equal error norms on every level; return ``method``'s records (their solver PETSc's)."""
     def compare(case, levels, method: str = "petsc", rtol: float = 1e-6) -> list[dict]:
         direct = study(case.with_solver(method="direct"), levels)
-        records = study(case.with_solver(method=method), levels)
+        tolerance = TOLERANCE if case.solver.tolerance == AUTO else case.solver.tolerance
+        records = study(case.with_solver(method=method, tolerance=tolerance), levels)
         for a, b in zip(direct, records):
             assert b["solver"] == "petsc" and a["solver"] != "petsc"
             for name, error in a["errors"].items():

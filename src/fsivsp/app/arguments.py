@@ -66,12 +66,14 @@ def non_negative_float(text: str) -> float:
     return value
 
 
-def number_arg(text: str) -> float:
-    """A number (its range is the field's: `SolverSpec` checks a tolerance)."""
+def tolerance_arg(text: str) -> float | str:
+    """``auto`` or a number (its range is the field's: `SolverSpec` checks a tolerance)."""
+    if text == "auto":
+        return text
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected auto or a number, got {text!r}") from None
 
 
 def whole_arg(text: str) -> int:

@@ -17,7 +17,7 @@ from ..io.checkpoint import CheckpointError
 from ..model.data import INITIAL_STRESS, INITIAL_VELOCITY
 from ..runtime import logs, parallel
 from ..runtime.threads import ThreadsError, using
-from ..solvers import TOLERANCE, NotConverged
+from ..solvers import AUTO, START_REDUCTION, TOLERANCE, NotConverged
 from .arguments import (
     DEFAULT_THREADS,
     Parser,
@@ -27,13 +27,13 @@ from .arguments import (
     level_arg,
     levels_arg,
     non_negative_float,
-    number_arg,
     petsc_argument,
     positive_float,
     positive_int,
     scheme_options,
     solver_spec,
     threads_option,
+    tolerance_arg,
 )
 
 log = logging.getLogger(__name__)
@@ -63,8 +63,9 @@ def build_parser() -> Parser:
     paper.add_argument("--solver", default="auto", metavar="NAME",
                        help="auto (default: direct below the measured crossover, iterative above), direct, iterative, "
                        "or a direct method (pardiso, umfpack, sparsecholesky, scipy)")
-    paper.add_argument("--tolerance", type=number_arg, default=TOLERANCE,
-                       help=f"the iterative solver's relative tolerance (default {TOLERANCE:g})")
+    paper.add_argument("--tolerance", type=tolerance_arg, default=AUTO,
+                       help="the iterative solver's tolerance: a number relative to the right-hand side, or auto "
+                       f"(default: {TOLERANCE:g} or the warm start's residual reduced by {START_REDUCTION:g})")
     scheme_options(paper)
     petsc_argument(paper)
     paper.add_argument("--json", type=Path, default=None, metavar="PATH", help="write one record per level to PATH")

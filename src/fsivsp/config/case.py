@@ -17,7 +17,7 @@ from ..geometry import Phases, geometry_phases
 from ..model.data import INITIAL_STRESS, INITIAL_VELOCITY
 from ..model.materials import FLUID_FIELDS, SOLID_FIELDS, Materials, lame
 from ..runtime.logs import warn
-from ..solvers import MAX_ITERATIONS, TOLERANCE, SolverSpec
+from ..solvers import AUTO, MAX_ITERATIONS, SolverSpec
 from ..timestepping.schemes import BDF2, Theta, time_scheme
 from .overrides import case_document
 from .readers import check_command, check_keys, choice, number, section
@@ -152,7 +152,7 @@ def read_solver(table: dict, solver: dict) -> SolverSpec:
     """The `SolverSpec` of ``[discretisation]``'s solver, tolerance, max_iterations and threads (``table``) and
     ``[solver.petsc]`` (in ``solver``)."""
     check_keys(solver, SECTIONS["solver"], "solver")
-    return SolverSpec(table.get("solver", "auto"), table.get("tolerance", TOLERANCE),
+    return SolverSpec(table.get("solver", "auto"), table.get("tolerance", AUTO),
                       table.get("max_iterations", MAX_ITERATIONS), table.get("threads"), solver.get("petsc", {}),
                       where=SOLVER_FIELDS)
 

@@ -86,8 +86,10 @@ KEYS: list[Key] = [
     Key('discretisation', ('solver',), '`"auto"`',
         '`"direct"`, `"iterative"`, `"petsc"`, `"pardiso"`, `"umfpack"`, `"sparsecholesky"`, `"scipy"`; under mpirun'
         ' `"auto"`, `"petsc"`, `"direct"` (MUMPS), `"iterative"` ([docs/solvers.md](solvers.md))'),
-    Key('discretisation', ('tolerance',), '1e-12',
-        "the iterative solver's relative tolerance, in (0, 1)"),
+    Key('discretisation', ('tolerance',), '`"auto"`',
+        "the iterative solver's tolerance: a number in (0, 1) stops a step's solve at ‖b − Ax‖ ≤ tolerance ‖b‖; "
+        '`"auto"` there (1e-12) or where the residual of the step\'s warm start has fallen by 10⁻⁴ (10⁻⁵ for θ = 1/2), '
+        'whichever comes first ([docs/solvers.md](solvers.md#tolerance))'),
     Key('discretisation', ('max_iterations',), '2000',
         'per step; beyond it the command stops with exit code 3'),
     Key('discretisation', ('threads',), 'the cores',

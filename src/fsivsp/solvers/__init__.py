@@ -19,17 +19,27 @@ import logging
 
 import ngsolve as ngs
 
-from .base import MAX_ITERATIONS, TOLERANCE, NotConverged, SolverError, StepSolver
+from .base import (
+    AUTO,
+    MAX_ITERATIONS,
+    START_REDUCTION,
+    TOLERANCE,
+    UNDAMPED_REDUCTION,
+    NotConverged,
+    SolverError,
+    StepSolver,
+)
 from .direct import METHODS, DirectSolver, available_methods, default_method, factorise
 from .petsc_init import available as petsc_available
 from .sparse import compact, free_mask, is_symmetric, to_ngsolve, to_scipy_csr
 from .spec import SolverSpec, read_petsc_options, solver_names
 
 __all__ = [
-    "AUTO_ITERATIVE_DOFS", "BACKENDS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "TOLERANCE",
-    "DirectSolver", "NotConverged", "SolverError", "SolverSpec", "StepSolver", "auto_solver", "available_methods",
-    "compact", "default_method", "factorise", "free_mask", "is_symmetric", "petsc_available", "read_petsc_options",
-    "solver_kind", "solver_names", "step_solver", "to_ngsolve", "to_scipy_csr", "unsupported",
+    "AUTO", "AUTO_ITERATIVE_DOFS", "BACKENDS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "START_REDUCTION",
+    "TOLERANCE", "UNDAMPED_REDUCTION", "DirectSolver", "NotConverged", "SolverError", "SolverSpec", "StepSolver",
+    "auto_solver", "available_methods", "compact", "default_method", "factorise", "free_mask", "is_symmetric",
+    "petsc_available", "read_petsc_options", "solver_kind", "solver_names", "step_solver", "to_ngsolve",
+    "to_scipy_csr", "unsupported",
 ]
 
 log = logging.getLogger(__name__)
@@ -78,7 +88,7 @@ def petsc_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: So
     from .petsc import MUMPS, PETScSolver
 
     options = {**MUMPS, **spec.petsc} if spec.method == "direct" else dict(spec.petsc)
-    return PETScSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations, options)
+    return PETScSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations, options, spec.reduction)
 
 
 #: The backends by `solver_kind`: factories ``(matrix, spaces, materials, dt, spec) -> StepSolver``.

@@ -29,10 +29,11 @@ from ..fem.spaces import Spaces
 from ..model.materials import Materials
 from ..runtime import parallel
 from ..runtime.threads import idle
-from .base import NotConverged
+from .base import AUTO, START_REDUCTION, TOLERANCE, NotConverged
 from .petsc_init import entered_options, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
+from .petsc_mass import ssor_velocity
 from .petsc_pmg import COARSE, SMOOTH, velocity_block
 from .petsc_schur import pressure_block
 from .sparse import to_scipy_csr
@@ -51,6 +52,7 @@ DEFAULTS: dict[str, str] = {
     "pc_fieldsplit_type": "schur",
     "pc_fieldsplit_schur_fact_type": "upper",
     "pc_fieldsplit_schur_precondition": "selfp",
+    "velocity_preconditioner": "boomeramg",
     "fieldsplit_velocity_ksp_type": "preonly",
     "fieldsplit_velocity_pc_type": "hypre",
     "fieldsplit_pressure_ksp_type": "preonly",
@@ -122,6 +124,11 @@ DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boom
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
 
 
+#: The auto tolerance (`base.START_REDUCTION`): PETSc's relative tolerance taken of the start's residual ‖b − Ax₀‖, not
+#: of ‖b‖ (from zero the two are one).
+AUTO_STOPPING: dict[str, str] = {"ksp_converged_use_initial_residual_norm": "true"}
+
+
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
 _ELASTICITY = {key.removeprefix("fieldsplit_velocity_"): value for key, value in ELASTICITY_3D.items()}
 
@@ -185,13 +192,14 @@ class PETScSolver:
 
     method = "petsc"
 
-    def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float,
-                 maxiter: int, options: Mapping[str, object] | None = None):
-        if not 0 < tol < 1:
-            raise ValueError(f"tolerance: expected a number in (0, 1), got {tol!r}")
+    def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float | str,
+                 maxiter: int, options: Mapping[str, object] | None = None, reduction: float = START_REDUCTION):
+        if tol != AUTO and not 0 < tol < 1:
+            raise ValueError(f"tolerance: expected auto or a number in (0, 1), got {tol!r}")
         PETSc = petsc()
         start = time.perf_counter()
-        self.PETSc, self.tol, self.maxiter = PETSc, tol, maxiter
+        self.PETSc, self.maxiter = PETSc, maxiter
+        self.tol, self.reduction = (TOLERANCE, reduction) if tol == AUTO else (tol, None)
         self.distributed = isinstance(matrix, ngs.la.ParallelMatrix)
         self.overlap = not self.distributed  # its products and reductions communicate: one MPI call at a time
         self.comm = PETSc.COMM_WORLD if self.distributed else PETSc.COMM_SELF
@@ -209,11 +217,15 @@ class PETScSolver:
         self.fields[0].compose("nearnullspace", self._near_nullspace)
 
         solid = spaces.solid_pressure is not None
-        defaults = {**DEFAULTS, **velocity_defaults(spaces),
+        defaults = {**(AUTO_STOPPING if self.reduction is not None else {}),**DEFAULTS, **velocity_defaults(spaces),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
+        self.stiffness_ratio, ssor = ssor_velocity(self, spaces, materials, defaults,
+                                                   {str(key).lstrip("-").removeprefix(PREFIX): value
+                                                    for key, value in (options or {}).items()})
+        defaults.update(ssor)
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
             self.ksp.setOptionsPrefix(PREFIX)
@@ -222,7 +234,7 @@ class PETScSolver:
             pc.setType("fieldsplit")
             pc.setFieldSplitIS(("velocity", self.fields[0]), ("pressure", self.fields[1]))
             self.ksp.setFromOptions()
-            self.ksp.setTolerances(rtol=tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
+            self.ksp.setTolerances(rtol=self.tol, atol=0.0, max_it=maxiter)  # the case's tolerance over ksp_rtol
             self.ksp.setInitialGuessNonzero(self.ksp.getType() != "preonly")  # the previous step (direct: none)
             self.ksp.setUp()  # creates the fieldsplit's sub-KSPs, whose pressure PC is set below
             if pc.getType() == "fieldsplit":
@@ -318,13 +330,15 @@ class PETScSolver:
             self._x.set(0.0)
         else:
             self._load_vector(guess, self._x)
+        norm = self._b.norm()
+        self._stopping(norm, guess is not None)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
-        norm = self._b.norm()
         self.residual = self.ksp.getResidualNorm() / norm if norm > 0 else 0.0
         if self.ksp.getConvergedReason() < 0:
-            raise NotConverged(f"petsc: {self.ksp.getType()} did not reach the tolerance {self.tol:g} in "
+            rule = f"{self.tol:g}" if self.reduction is None else f"auto ({self.tol:g}, {self.reduction:g})"
+            raise NotConverged(f"petsc: {self.ksp.getType()} did not reach the tolerance {rule} in "
                                f"{self.iterations[-1]} iterations (relative residual {self.residual:.2e}, "
                                f"reason {self.ksp.getConvergedReason()})")
         self._scatter.scatter(self._x, self._local, addv=self.PETSc.InsertMode.INSERT_VALUES)
@@ -332,6 +346,13 @@ class PETScSolver:
         if self.distributed:
             out.Cumulate()
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
+
+    def _stopping(self, norm: float, started: bool) -> None:
+        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start
+        (``started``) also ‖r‖ ≤ ``reduction`` ‖b − Ax₀‖, whichever comes first (`base.START_REDUCTION`)."""
+        if self.reduction is not None:   # PETSc stops at ‖r‖ ≤ max(rtol ‖r₀‖, atol) (`AUTO_STOPPING`)
+            self.ksp.setTolerances(rtol=self.reduction if started else self.tol,
+                                   atol=self.tol * norm if started else 0.0, max_it=self.maxiter)
 
     def destroy(self) -> None:
         """Free the PETSc objects (at exit: `petsc_init.register`)."""
@@ -349,13 +370,13 @@ class PETScSolver:
 
     def statistics(self) -> dict:
         counts = self.iterations or [0]
-        return {"method": self.method, "tolerance": self.tol, "residual": self.residual,
+        return {"method": self.method, "tolerance": AUTO if self.reduction is not None else self.tol,
+                "residual": self.residual,
                 "setup_seconds": self.factor_seconds, "matvec_seconds": self.matvec_seconds,
                 "ranks": self.comm.getSize(),
                 "preconditioner": {"ksp": self.options["ksp_type"], "pc": self.ksp.getPC().getType() + " "
                                    + self.options.get("pc_fieldsplit_type", ""),
-                                   "velocity": ("p-multigrid"
-                                                if self.options.get("velocity_preconditioner") == "p-multigrid"
-                                                else self.options.get("fieldsplit_velocity_pc_type")),
+                                   "velocity": self.options["velocity_preconditioner"],
+                                   "stiffness_ratio": self.stiffness_ratio,
                                    "pressure": self.options["schur_approximation"]},
                 "iterations": {"mean": float(np.mean(counts)), "max": int(max(counts)), "solves": len(self.iterations)}}

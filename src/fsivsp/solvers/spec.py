@@ -8,10 +8,11 @@ from dataclasses import InitVar, dataclass, field
 
 from ..errors import CaseError, expected, is_number, is_whole
 from ..runtime import parallel
-from .base import MAX_ITERATIONS, TOLERANCE
+from .base import AUTO, MAX_ITERATIONS, START_REDUCTION
 from .direct import available_methods
 
-PETSC_OPTION = re.compile(r"[a-z][a-z0-9_]*")
+#: A PETSc option name: letters, digits and underscores, capitals included (hypre's `pc_hypre_boomeramg_P_max`).
+PETSC_OPTION = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
 def solver_names() -> list[str]:
@@ -43,7 +44,8 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
 @dataclass(frozen=True)
 class SolverSpec:
     """The solver of a run: ``method`` (``"auto"``, ``"direct"``, ``"iterative"``, ``"petsc"`` or a direct
-    method of `solvers.direct.METHODS`), the iterative solvers' ``tolerance`` and ``max_iterations``, ``threads``
+    method of `solvers.direct.METHODS`), the iterative solvers' ``tolerance`` (``"auto"`` or a number, `base`), the auto
+    tolerance's ``reduction`` of the start's residual and ``max_iterations``, ``threads``
     (None: the default of `threads.using`), PETSc's options (``petsc``, `read_petsc_options`) and whether the run is
     ``distributed`` over MPI ranks (default: this run's, `parallel.distributed`).
 
@@ -52,10 +54,11 @@ class SolverSpec:
     "discretisation.solver"}``), else ``solver.<field>``."""
 
     method: str = "auto"
-    tolerance: float = TOLERANCE
+    tolerance: float | str = AUTO
     max_iterations: int = MAX_ITERATIONS
     threads: int | None = None
     petsc: Mapping[str, str] = field(default_factory=dict)
+    reduction: float = START_REDUCTION
     distributed: bool = field(default_factory=parallel.distributed)
     where: InitVar[Mapping[str, str] | None] = None
 
@@ -65,16 +68,20 @@ class SolverSpec:
 
         if self.method not in solver_names():
             raise expected(label("method"), f"one of {', '.join(solver_names())}", self.method)
-        if not is_number(self.tolerance) or not 0 < self.tolerance < 1:
-            raise expected(label("tolerance"), "a number in (0, 1)", self.tolerance)
+        if self.tolerance != AUTO and (not is_number(self.tolerance) or not 0 < self.tolerance < 1):
+            raise expected(label("tolerance"), '"auto" or a number in (0, 1)', self.tolerance)
+        if not is_number(self.reduction) or not 0 < self.reduction < 1:
+            raise expected(label("reduction"), "a number in (0, 1)", self.reduction)
         if not is_whole(self.max_iterations):
             raise expected(label("max_iterations"), "a positive whole number", self.max_iterations)
         if self.threads is not None and not is_whole(self.threads):
             raise expected(label("threads"), "a positive whole number", self.threads)
-        object.__setattr__(self, "tolerance", float(self.tolerance))
+        if self.tolerance != AUTO:
+            object.__setattr__(self, "tolerance", float(self.tolerance))
         object.__setattr__(self, "petsc", read_petsc_options(self.petsc, label("petsc")))
 
     def record(self) -> dict:
         """The spec for a report (summary.json)."""
-        return {"method": self.method, "tolerance": self.tolerance, "max_iterations": self.max_iterations,
+        return {"method": self.method, "tolerance": self.tolerance, "reduction": self.reduction,
+                "max_iterations": self.max_iterations,
                 "threads": self.threads, "options": dict(self.petsc)}

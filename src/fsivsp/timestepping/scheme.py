@@ -20,6 +20,7 @@ rank-one term γ c cᵀ of the step matrix, solved by the Woodbury formula aroun
 """
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import ngsolve as ngs
@@ -34,7 +35,7 @@ from ..model.data import Data
 from ..model.materials import Materials
 from ..runtime import threads
 from ..runtime.logs import stage
-from ..solvers import SolverError, SolverSpec, compact, solver_kind, step_solver
+from ..solvers import UNDAMPED_REDUCTION, SolverError, SolverSpec, compact, solver_kind, step_solver
 from ..solvers.woodbury import WoodburySolver
 from .initial import initial_multiplier, initial_solid_pressure, initial_state, project_offset
 from .marching import march
@@ -77,7 +78,10 @@ class Scheme:
         if dt <= 0:
             raise ValueError(f"dt: expected a positive time step, got {dt}")
         unknowns, dim = spaces.free_dofs(), spaces.mesh.dim
-        threads.fit(unknowns, dim, solver_kind(solver or SolverSpec(), unknowns, dim))
+        solver = solver or SolverSpec()
+        if not time_scheme.damps:   # Crank–Nicolson: the auto tolerance's tighter reduction
+            solver = dataclasses.replace(solver, reduction=min(solver.reduction, UNDAMPED_REDUCTION))
+        threads.fit(unknowns, dim, solver_kind(solver, unknowns, dim))
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         self.pressure_unit = self.tau   # ϑ: a solid pressure's unknowns are ϑπ and ϑP (`forms`)

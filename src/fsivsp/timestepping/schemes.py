@@ -54,6 +54,11 @@ class Theta:
     #: history levels a step reads (vⁿ⁻¹, uⁿ⁻¹)
     levels = 1
 
+    @property
+    def damps(self) -> bool:
+        """Whether its steps damp the stiff components (θ > 1/2; Crank–Nicolson's alternate in sign)."""
+        return self.theta > 0.5
+
     def start(self, n: int) -> Theta:
         """The scheme of step n + 1 (every step is a θ-step)."""
         return self
@@ -109,6 +114,7 @@ class BDF2:
     label = "BDF2"
     theta = 1.0
     levels = 2
+    damps = True   # L-stable (its Crank–Nicolson start is one step)
 
     def start(self, n: int) -> Theta | BDF2:
         return Theta(0.5) if n == 0 else self
