@@ -80,6 +80,8 @@ def test_case_file_options_reach_petsc(tmp_path):
 def test_petsc_options_validated():
     assert read_petsc_options({"ksp_monitor": True, "ksp_rtol": 1e-8, "pc_type": "lu", "off": False}) == \
         {"ksp_monitor": "", "ksp_rtol": "1e-08", "pc_type": "lu"}
+    assert read_petsc_options({"fieldsplit_velocity_pc_hypre_boomeramg_P_max": 2}) == \
+        {"fieldsplit_velocity_pc_hypre_boomeramg_P_max": "2"}   # hypre's names have capitals
     with pytest.raises(CaseError, match=r"solver.petsc.KSP type: expected a PETSc option name"):
         read_petsc_options({"KSP type": "gmres"})
     with pytest.raises(CaseError, match=r"solver.petsc.ksp_type: expected a string, a number or true/false"):
