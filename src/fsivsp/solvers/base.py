@@ -13,13 +13,15 @@ TOLERANCE = 1e-12
 AUTO = "auto"
 #: The auto tolerance's reduction of the start's residual ‖b − Ax₀‖. The start x₀ = 2xⁿ − xⁿ⁻¹ (`warmstart`) misses
 #: x^{n+1} by Δt² ẍ: twice backward Euler's local error, so the step's algebraic error stays 10⁻⁴ of it (the paper's
-#: experiment, Δt = 1e-2, levels 1–4: the pressure's error norm moves by 3.6e-4, 2.2e-4, 7.3e-4, 3.0e-3 of itself, the
-#: others by at most 4e-6; 1e-3 moved it by 33 % on level 4). A solve from zero (no start: a Woodbury column, a
-#: correction) takes the fixed tolerance.
+#: experiment, Δt = 1e-2, levels 1–4: the pressure's error norm moves by 9.4e-7, 1.2e-4, 5.6e-6, 3.3e-4 of itself, the
+#: others by at most 6.2e-7; docs/solvers.md, "Tolerance"). A solve from zero (no start: a Woodbury column, a
+#: correction) takes the fixed tolerance. From a start that is not the extrapolation (xⁿ: the first two steps, a change
+#: of time scheme) ‖b − Ax₀‖ is the step's increment, O(Δt), not O(Δt²): the reduction squared (1e-8) stands in for
+#: the missing factor Δt·ω (the paper's Δt·ω ≈ 1e-2, the 3D tube's 6e-3).
 START_REDUCTION = 1e-4
 #: The same for a time scheme that does not damp its stiff components (Crank–Nicolson, θ = 1/2: they alternate in
 #: sign from step to step, and a start misses them by twice their size): at 1e-4 the paper's e(p) moved by 1.5 % of
-#: itself on level 3, at 1e-5 by 7.9e-5 on levels 1–3 (`timestepping.scheme` takes it for θ = 1/2).
+#: itself on level 3, at 1e-5 by at most 4.8e-5 on levels 1–3 (`timestepping.scheme` takes it for θ = 1/2).
 UNDAMPED_REDUCTION = 1e-5
 MAX_ITERATIONS = 2000
 
@@ -38,15 +40,16 @@ class NotConverged(SolverError):
 
 class StepSolver(Protocol):
     """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: where an iterative method
-    starts) and a record for reports; ``overlap``: whether a solve may run concurrently with other work of the
-    scheme (not when it communicates between MPI ranks)."""
+    starts; ``predicted``: whether that is the extrapolation 2xⁿ − xⁿ⁻¹, not xⁿ, which the auto tolerance reads) and
+    a record for reports; ``overlap``: whether a solve may run concurrently with other work of the scheme (not when
+    it communicates between MPI ranks)."""
 
     method: str
     factor_seconds: float
     overlap: bool
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None) -> None: ...
+                   guess: ngs.BaseVector | None = None, predicted: bool = False) -> None: ...
 
     def progress(self) -> str: ...
 

@@ -323,15 +323,16 @@ class PETScSolver:
         return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None) -> None:
-        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself)."""
+                   guess: ngs.BaseVector | None = None, predicted: bool = False) -> None:
+        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself; ``predicted``: it is the extrapolated
+        start, `_stopping`)."""
         self._load_vector(rhs, self._b)
         if guess is None:
             self._x.set(0.0)
         else:
             self._load_vector(guess, self._x)
         norm = self._b.norm()
-        self._stopping(norm, guess is not None)
+        self._stopping(norm, None if guess is None else predicted)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
@@ -347,12 +348,14 @@ class PETScSolver:
             out.Cumulate()
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
-    def _stopping(self, norm: float, started: bool) -> None:
-        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start
-        (``started``) also ‖r‖ ≤ ``reduction`` ‖b − Ax₀‖, whichever comes first (`base.START_REDUCTION`)."""
+    def _stopping(self, norm: float, predicted: bool | None) -> None:
+        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start also
+        ‖r‖ ≤ ρ ‖b − Ax₀‖, whichever comes first: ρ = ``reduction`` from the extrapolated start (``predicted``),
+        its square from another (`base.START_REDUCTION`; None: no start)."""
         if self.reduction is not None:   # PETSc stops at ‖r‖ ≤ max(rtol ‖r₀‖, atol) (`AUTO_STOPPING`)
-            self.ksp.setTolerances(rtol=self.reduction if started else self.tol,
-                                   atol=self.tol * norm if started else 0.0, max_it=self.maxiter)
+            started = predicted is not None
+            rtol = (self.reduction if predicted else self.reduction**2) if started else self.tol
+            self.ksp.setTolerances(rtol=rtol, atol=self.tol * norm if started else 0.0, max_it=self.maxiter)
 
     def destroy(self) -> None:
         """Free the PETSc objects (at exit: `petsc_init.register`)."""

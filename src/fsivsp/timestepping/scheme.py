@@ -172,7 +172,8 @@ class Scheme:
             self._start_solve(current, n, self._raw)
         else:
             self.right_hand_side(current, n, self._rhs, self._boundary)
-            self.solver.solve_step(self._rhs, self._boundary, self._raw, self.guess())
+            guess = self.guess()
+            self.solver.solve_step(self._rhs, self._boundary, self._raw, guess, predicted=guess is not self.latest())
         self.accept(self._raw, n, current, None)
 
     def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:
