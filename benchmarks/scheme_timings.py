@@ -63,9 +63,8 @@ def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
     for _ in range(steps):
         n, current = scheme.n + 1, scheme.time_scheme
         a = timed(lambda current=current, n=n: scheme.right_hand_side(current, n, scheme._rhs, scheme._boundary))
-        guess = scheme.guess()
-        b = timed(lambda guess=guess: scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, guess,
-                                                               predicted=guess is not scheme.latest()))
+        b = timed(lambda: scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, scheme.guess(),
+                                                   predicted=scheme.warm.predicts(scheme.time_scheme, scheme.n)))
         c = timed(lambda n=n, current=current: scheme.accept(scheme._raw, n, current, None))
         d = timed(lambda: errors(scheme))
         for key, value in zip(("rhs", "solve", "stress", "norms", "step"), (a, b, c, d, a + b + c + d)):

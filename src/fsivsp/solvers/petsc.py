@@ -30,7 +30,7 @@ from ..model.materials import Materials
 from ..runtime import parallel
 from ..runtime.threads import idle
 from .base import AUTO, START_REDUCTION, TOLERANCE, NotConverged
-from .petsc_init import entered_options, petsc, register, unregister
+from .petsc_init import entered_options, option_names, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
 from .petsc_mass import ssor_velocity
@@ -217,14 +217,13 @@ class PETScSolver:
         self.fields[0].compose("nearnullspace", self._near_nullspace)
 
         solid = spaces.solid_pressure is not None
-        defaults = {**(AUTO_STOPPING if self.reduction is not None else {}),**DEFAULTS, **velocity_defaults(spaces),
+        defaults = {**(AUTO_STOPPING if self.reduction is not None else {}), **DEFAULTS, **velocity_defaults(spaces),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
         self.stiffness_ratio, ssor = ssor_velocity(self, spaces, materials, defaults,
-                                                   {str(key).lstrip("-").removeprefix(PREFIX): value
-                                                    for key, value in (options or {}).items()})
+                                                   option_names(options or {}, PREFIX))
         defaults.update(ssor)
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)

@@ -121,6 +121,11 @@ def slepc(scalar: str = "complex"):
     return PETSc, SLEPc
 
 
+def option_names(options: Mapping[str, object], prefix: str) -> dict[str, object]:
+    """``options`` keyed by their names without the leading dash and ``prefix``."""
+    return {str(key).lstrip("-").removeprefix(prefix): value for key, value in options.items()}
+
+
 @contextlib.contextmanager
 def entered_options(PETSc, prefix: str, defaults: Mapping[str, object],
                     options: Mapping[str, object]) -> Iterator[dict[str, str]]:
@@ -129,7 +134,7 @@ def entered_options(PETSc, prefix: str, defaults: Mapping[str, object],
     (PETSC_OPTIONS) kept; yields the options in force. After: the entries made here taken out again (the database
     is one per process: the next solver starts from PETSC_OPTIONS and its own options only)."""
     database = PETSc.Options()
-    given = {str(k).lstrip("-").removeprefix(prefix): v for k, v in options.items()}
+    given = option_names(options, prefix)
     entered = []
     for key, value in {**defaults, **given}.items():
         if key in given or not database.hasName(prefix + key):

@@ -32,7 +32,15 @@ from ..fem import forms
 from ..fem.spaces import Spaces
 from ..geometry import SOLID
 from ..model.materials import Materials
-from .petsc_schur import SchurPreconditioner, commutator, higher_rows, install, masses, part, pressure_laplacian
+from .petsc_schur import (
+    SchurPreconditioner,
+    commutator,
+    higher_rows,
+    install,
+    part,
+    pressure_laplacian,
+    velocity_mass,
+)
 from .sparse import to_scipy_csr
 
 
@@ -47,7 +55,7 @@ def joint_pressure_block(solver, spaces: Spaces, materials: Materials, dt: float
     if name.startswith("joint-lsc"):
         mass = _mass_inverse(solver, spaces, materials, dt) if name == "joint-lsc-mass" else None
         return _joint_lsc(solver, spaces, a, c, d, mass)
-    mass, _ = masses(solver, spaces, materials)
+    mass = velocity_mass(solver, spaces, materials)
     weights = part(mass, velocity)
     values = weights.getArray()
     values[:] = np.where(higher_rows(solver, spaces), a.getDiagonal().getArray(), values)

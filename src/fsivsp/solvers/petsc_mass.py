@@ -18,18 +18,17 @@ from collections.abc import Mapping
 
 from ..fem.spaces import Spaces
 from ..model.materials import Materials
-from .petsc_schur import masses, part
+from .petsc_schur import part, velocity_mass
 
 
 def stiffness_ratio(solver, spaces: Spaces, materials: Materials) -> float:
     """q = max_i A_ii / (ρM)_ii over the velocity rows of ``solver``'s step matrix (the module's docstring), over
     every rank."""
-    mass, pressure_mass = masses(solver, spaces, materials)
-    velocity = solver.fields[0]
+    mass, velocity = velocity_mass(solver, spaces, materials), solver.fields[0]
     diagonal, mass_diagonal = part(solver.A.getDiagonal(), velocity), part(mass, velocity)
     diagonal.pointwiseDivide(diagonal, mass_diagonal)
     ratio = diagonal.max()[1]
-    for vector in (mass, pressure_mass, diagonal, mass_diagonal):
+    for vector in (mass, diagonal, mass_diagonal):
         vector.destroy()
     return ratio
 
@@ -47,7 +46,7 @@ DEFAULTS_SSOR: dict[str, str] = {
     "fieldsplit_velocity_pc_type": "sor",
 }
 
-#: The largest stiffness ratio q (`petsc_mass`) at which the velocity block takes `DEFAULTS_SSOR` by default.
+#: The largest stiffness ratio q (the module's docstring) at which the velocity block takes `DEFAULTS_SSOR` by default.
 MASS_DOMINATED = 30.0
 
 
@@ -63,5 +62,3 @@ def ssor_velocity(solver, spaces: Spaces, materials: Materials, defaults: Mappin
         return None, {}
     ratio = stiffness_ratio(solver, spaces, materials)
     return ratio, DEFAULTS_SSOR if ratio <= MASS_DOMINATED else {}
-
-

@@ -70,7 +70,7 @@ def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> S
         laplacian, middle, y = commutator(solver, spaces, a, c)
         weight = None
     else:
-        mass, pmass = masses(solver, spaces, materials)
+        mass, pmass = velocity_mass(solver, spaces, materials), pressure_mass(solver, spaces, materials)
         laplacian, y = pressure_laplacian(PETSc, c, part(mass, velocity))
         weight, middle = part(pmass, pressure), None
         weight.reciprocal()
@@ -139,18 +139,23 @@ def correct_higher(solver, middle, a, c, y, spaces: Spaces) -> None:
     middle.axpy(1.0, f_h.matMult(scaled), structure=structure)
 
 
-def masses(solver, spaces: Spaces, materials: Materials):
-    """The diagonals of the velocity mass ρM and the pressure mass M_p/(2ν) as PETSc vectors (PETSc's order)."""
-    X = spaces.mixed
+def diagonal(solver, form: ngs.BilinearForm):
+    """The diagonal of ``form`` (on X_h, assembled here) as a PETSc vector in PETSc's order."""
+    form.Assemble()
+    matrix = form.mat.local_mat if solver.distributed else form.mat
+    vector = solver.A.createVecRight()
+    solver.load_values(to_scipy_csr(matrix).diagonal(), vector, solver.distributed)
+    return vector
+
+
+def velocity_mass(solver, spaces: Spaces, materials: Materials):
+    """The diagonal of the velocity mass ρM (PETSc's order)."""
+    return diagonal(solver, forms.velocity_mass(spaces, materials))
+
+
+def pressure_mass(solver, spaces: Spaces, materials: Materials):
+    """The diagonal of the pressure mass M_p/(2ν) (PETSc's order)."""
     (_, p), (_, q) = forms.trial_test(spaces)
-    mass = forms.velocity_mass(spaces, materials)
-    pmass = ngs.BilinearForm(X)
-    pmass += forms.pressure_mass(p, q, spaces, 1 / (2 * materials.nu))
-    diagonals = []
-    for form in (mass, pmass):
-        form.Assemble()
-        matrix = form.mat.local_mat if solver.distributed else form.mat
-        vector = solver.A.createVecRight()
-        solver.load_values(to_scipy_csr(matrix).diagonal(), vector, solver.distributed)
-        diagonals.append(vector)
-    return diagonals
+    form = ngs.BilinearForm(spaces.mixed)
+    form += forms.pressure_mass(p, q, spaces, 1 / (2 * materials.nu))
+    return diagonal(solver, form)

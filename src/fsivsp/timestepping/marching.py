@@ -112,10 +112,9 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
         for j in range(1, steps + 1):
             guess = start(j)
-            newest = scheme.latest() if j == 1 else solutions[(j - 1) % 2]
             finished = second.submit(finish_previous, j)
             scheme.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2], guess,
-                                     predicted=guess is not newest)
+                                     predicted=scheme.warm.predicts(time_scheme, first + j - 1))
             finished.result()
             if j < steps:
                 scheme.add_lagged(rhs[(j + 1) % 2], solutions[j % 2], first + j + 1,

@@ -80,7 +80,7 @@ class Scheme:
         unknowns, dim = spaces.free_dofs(), spaces.mesh.dim
         solver = solver or SolverSpec()
         if not time_scheme.damps:   # Crank–Nicolson: the auto tolerance's tighter reduction
-            solver = dataclasses.replace(solver, reduction=min(solver.reduction, UNDAMPED_REDUCTION))
+            solver = dataclasses.replace(solver, reduction=UNDAMPED_REDUCTION)
         threads.fit(unknowns, dim, solver_kind(solver, unknowns, dim))
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
@@ -172,8 +172,8 @@ class Scheme:
             self._start_solve(current, n, self._raw)
         else:
             self.right_hand_side(current, n, self._rhs, self._boundary)
-            guess = self.guess()
-            self.solver.solve_step(self._rhs, self._boundary, self._raw, guess, predicted=guess is not self.latest())
+            self.solver.solve_step(self._rhs, self._boundary, self._raw, self.guess(),
+                                   predicted=self.warm.predicts(self.time_scheme, self.n))
         self.accept(self._raw, n, current, None)
 
     def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:

@@ -48,11 +48,16 @@ class Extrapolation:
         """xⁿ⁻¹ := ``newest`` (xⁿ), before the scheme accepts xⁿ⁺¹."""
         self.older.data = newest
 
+    def predicts(self, time_scheme, n: int) -> bool:
+        """Whether step n + 1 starts from the extrapolation (the solver takes a start and it `extrapolates`): what
+        the auto tolerance reads (`solvers.base.START_REDUCTION`)."""
+        return self.enabled and extrapolates(time_scheme, n)
+
     def start(self, time_scheme, n: int, newest: ngs.BaseVector, older: ngs.BaseVector | None = None,
               out: ngs.BaseVector | None = None) -> ngs.BaseVector:
         """The start of step n + 1 from ``newest`` = xⁿ and ``older`` = xⁿ⁻¹ (default: `older`): 2xⁿ − xⁿ⁻¹ in ``out``
-        (default: `guess`) where `extrapolates` and the solver takes a start, else ``newest`` itself."""
-        if not (self.enabled and extrapolates(time_scheme, n)):
+        (default: `guess`) where it `predicts`, else ``newest`` itself."""
+        if not self.predicts(time_scheme, n):
             return newest
         out = self.guess if out is None else out
         out.data = 2 * newest - (self.older if older is None else older)
