@@ -86,6 +86,9 @@ def test_petsc_options_validated():
         read_petsc_options({"KSP type": "gmres"})
     with pytest.raises(CaseError, match=r"solver.petsc.ksp_type: expected a string, a number or true/false"):
         read_petsc_options({"ksp_type": ["gmres"]})
+    with pytest.raises(CaseError, match=r"velocity_preconditioner: expected one of boomeramg, ssor, p-multigrid, "
+                                        r"condensed, got 'amg'"):
+        read_petsc_options({"velocity_preconditioner": "amg"})
 
 
 def test_command_line_options(capsys):

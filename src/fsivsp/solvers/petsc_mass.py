@@ -18,6 +18,7 @@ from collections.abc import Mapping
 
 from ..fem.spaces import Spaces
 from ..model.materials import Materials
+from .petsc_pmg import COARSE
 from .petsc_schur import part, velocity_mass
 
 
@@ -50,15 +51,12 @@ DEFAULTS_SSOR: dict[str, str] = {
 MASS_DOMINATED = 30.0
 
 
-def ssor_velocity(solver, spaces: Spaces, materials: Materials, defaults: Mapping[str, str],
-                  given: Mapping[str, object]) -> tuple[float | None, dict[str, str]]:
-    """(q, the options that make the velocity block SSOR's): `DEFAULTS_SSOR` where the block's default is BoomerAMG
-    (not the p-multigrid), the user's options ``given`` (keys without the prefix) set nothing of it and q ≤
-    `MASS_DOMINATED`, or where ``given`` asks for ``velocity_preconditioner = "ssor"``; q None where not computed."""
-    if "velocity_preconditioner" in given:
-        return None, DEFAULTS_SSOR if str(given["velocity_preconditioner"]) == "ssor" else {}
-    if defaults["velocity_preconditioner"] != "boomeramg" or any(key.startswith("fieldsplit_velocity_")
-                                                                  for key in given):
-        return None, {}
-    ratio = stiffness_ratio(solver, spaces, materials)
-    return ratio, DEFAULTS_SSOR if ratio <= MASS_DOMINATED else {}
+def ratio_for_ssor(solver, spaces: Spaces, materials: Materials, defaults: Mapping[str, str],
+                  given: Mapping[str, object]) -> float | None:
+    """The stiffness ratio q where the velocity block may take `DEFAULTS_SSOR` (at q ≤ `MASS_DOMINATED`): its default
+    is BoomerAMG or MINI's condensed bubbles (not the p-multigrid) and the user's options ``given`` (keys without the
+    prefix) set nothing of it; else None (not computed)."""
+    if (defaults["velocity_preconditioner"] not in ("boomeramg", "condensed") or "velocity_preconditioner" in given
+            or any(key.startswith(("fieldsplit_velocity_", COARSE)) for key in given)):
+        return None
+    return stiffness_ratio(solver, spaces, materials)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import CaseError
 from ..fem.spaces import Spaces
 from .petsc_schur import higher_rows
 
@@ -61,31 +62,99 @@ class TwoLevel:
             obj.destroy()
 
 
-def vertex_rows(solver, spaces: Spaces) -> np.ndarray:
+def vertex_rows(solver, spaces: Spaces, vertex: bool = True) -> np.ndarray:
     """The global numbers (within the velocity field) of this rank's velocity rows that are vertex dofs of V_h (the
-    P1 hat functions). Under MPI a rank's rows are not its master dofs (`petsc_layout`): the marks travel by a field
-    vector."""
-    marks = solver.field_vector((~higher_rows(solver, spaces)).astype(float))
+    P1 hat functions; with ``vertex`` False the others). Under MPI a rank's rows are not its master dofs
+    (`petsc_layout`): the marks travel by a field vector."""
+    marks = solver.field_vector((higher_rows(solver, spaces) != vertex).astype(float))
     start = marks.getOwnershipRange()[0]
     rows = start + np.flatnonzero(marks.getArray(readonly=True) > 0.5)
     marks.destroy()
     return rows
 
 
-def velocity_block(solver, spaces: Spaces) -> TwoLevel:
-    """The two-level cycle of the module's docstring as PETSc's Python PC of ``solver``'s velocity field (after the
-    fieldsplit's set-up): its operators from the step matrix, its options under the solver's prefix."""
+def bubble_inverse(PETSc, a_bb, d: int):
+    """A_bb⁻¹ as a matrix: MINI's bubbles are cell dofs, one a component, so A_bb is block diagonal (a cell's d × d
+    block, its components coupled by ε(v) : ε(w)) and its inverse is the blocks' inverses."""
+    a_bb.setBlockSize(d)
+    indptr, columns, _ = a_bb.getValuesCSR()
+    start, stop = a_bb.getOwnershipRange()
+    if np.any(columns // d != np.repeat(np.arange(start, stop), np.diff(indptr)) // d):
+        raise CaseError('solver.petsc.velocity_preconditioner: expected "condensed" only with MINI (one bubble a '
+                        "cell and component), got a velocity space whose higher dofs couple across cells")
+    rows = np.repeat(np.arange(start, stop, d), d)   # each row's block's first column
+    return PETSc.Mat().createAIJ(size=a_bb.getSizes(), bsize=d, comm=a_bb.getComm(), csr=(
+        np.arange(0, len(rows) * d + 1, d, dtype=PETSc.IntType),
+        (rows[:, None] + np.arange(d)).ravel().astype(PETSc.IntType),
+        np.asarray(a_bb.invertBlockDiagonal()).ravel()))  # symmetric blocks: row- and column-major alike
+
+
+class Condensed:
+    """PETSc's Python PC of the module's docstring with MINI's bubbles condensed: ``inverse`` A_bb⁻¹, ``a_vb`` and
+    ``a_bv`` the velocity block's vertex–bubble blocks, ``coarse`` a PC on the Schur complement S."""
+
+    def __init__(self, inverse, a_vb, a_bv, vertex, bubble, coarse):
+        self.inverse, self.a_vb, self.a_bv, self.coarse = inverse, a_vb, a_bv, coarse
+        self.vertex, self.bubble = vertex, bubble
+        self._v = a_vb.createVecLeft()
+        self._b, self._t = inverse.createVecs()
+        self.applications = 0
+
+    def apply(self, pc, b, y) -> None:
+        self.applications += 1
+        b_b, b_v = b.getSubVector(self.bubble), b.getSubVector(self.vertex)
+        y_b, y_v = y.getSubVector(self.bubble), y.getSubVector(self.vertex)
+        self.inverse.mult(b_b, y_b)                 # y_b = A_bb⁻¹ b_b
+        self.a_vb.mult(y_b, self._v)
+        self._v.aypx(-1.0, b_v)                     # r_v = b_v − A_vb y_b
+        self.coarse.apply(self._v, y_v)             # y_v = S⁻¹ r_v (one BoomerAMG cycle)
+        self.a_bv.mult(y_v, self._b)
+        self.inverse.mult(self._b, self._t)
+        y_b.axpy(-1.0, self._t)                     # y_b −= A_bb⁻¹ A_bv y_v
+        b.restoreSubVector(self.bubble, b_b)
+        b.restoreSubVector(self.vertex, b_v)
+        y.restoreSubVector(self.bubble, y_b)
+        y.restoreSubVector(self.vertex, y_v)
+
+    def destroy(self, pc=None) -> None:
+        """Free its PETSc objects (as `TwoLevel.destroy`)."""
+        for obj in (self._v, self._b, self._t, self.inverse, self.a_vb, self.a_bv, self.coarse):
+            obj.destroy()
+
+
+def velocity_block(solver, spaces: Spaces) -> TwoLevel | Condensed:
+    """The two-level cycle of the module's docstring (``velocity_preconditioner = "p-multigrid"``) or its condensed
+    form (``"condensed"``) as PETSc's Python PC of ``solver``'s velocity field (after the fieldsplit's set-up): its
+    operators from the step matrix, its options under the solver's prefix."""
     PETSc, (velocity, _) = solver.PETSc, solver.fields
     prefix = solver.ksp.getOptionsPrefix()
     d = spaces.mesh.dim
+    nodal = solver.layout.blocksize == d
     a = solver.A.createSubMatrix(velocity, velocity)
     a.setBlockSize(solver.layout.blocksize)
-    rows = vertex_rows(solver, spaces)
-    vertex = PETSc.IS().createGeneral(rows.astype(PETSc.IntType), comm=solver.comm)
-    if solver.layout.blocksize == d:
+    vertex, bubble = (PETSc.IS().createGeneral(vertex_rows(solver, spaces, part).astype(PETSc.IntType),
+                                               comm=solver.comm) for part in (True, False))
+    if nodal:
         vertex.setBlockSize(d)
+        bubble.setBlockSize(d)
     a_vv = a.createSubMatrix(vertex, vertex)
-    if solver.layout.blocksize == d:
+    condensed = solver.options.get("velocity_preconditioner") == "condensed"
+    if condensed:
+        a_bb, a_vb, a_bv = (a.createSubMatrix(rows, columns) for rows, columns in
+                            ((bubble, bubble), (vertex, bubble), (bubble, vertex)))
+        inverse = bubble_inverse(PETSc, a_bb, d)
+        correction = inverse.ptap(a_bv)                          # A_vb A_bb⁻¹ A_bv
+        a_vv.axpy(-1.0, correction, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)  # S
+        for obj in (a_bb, correction, a):
+            obj.destroy()
+    else:
+        smoother = PETSc.KSP().create(comm=solver.comm)
+        smoother.setOptionsPrefix(prefix + SMOOTH)
+        smoother.setOperators(a)
+        smoother.setFromOptions()
+        smoother.setInitialGuessNonzero(False)
+        smoother.setUp()
+    if nodal:
         a_vv.setBlockSize(d)
     vectors = []
     for mode in solver.rigid_motion_vectors:
@@ -97,21 +166,18 @@ def velocity_block(solver, spaces: Spaces) -> TwoLevel:
         vector.normalize()
         vectors.append(vector)
     nullspace = PETSc.NullSpace().create(vectors=vectors, comm=solver.comm)
-    a_vv.setNearNullSpace(nullspace)
-
-    smoother = PETSc.KSP().create(comm=solver.comm)
-    smoother.setOptionsPrefix(prefix + SMOOTH)
-    smoother.setOperators(a)
-    smoother.setFromOptions()
-    smoother.setInitialGuessNonzero(False)
-    smoother.setUp()
+    a_vv.setNearNullSpace(nullspace)   # after the sum: a new nonzero pattern makes a new matrix
     coarse = PETSc.PC().create(comm=solver.comm)
     coarse.setOptionsPrefix(prefix + COARSE)
     coarse.setOperators(a_vv)
     coarse.setFromOptions()
     coarse.setUp()
-    context = TwoLevel(a, vertex, smoother, coarse)
-    solver.keep += [a, vertex, a_vv, nullspace, *vectors]
+    if condensed:
+        context = Condensed(inverse, a_vb, a_bv, vertex, bubble, coarse)
+        solver.keep += [vertex, bubble, a_vv, nullspace, *vectors]
+    else:
+        context = TwoLevel(a, vertex, smoother, coarse)
+        solver.keep += [a, vertex, bubble, a_vv, nullspace, *vectors]
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[0].getPC()
     pc.setType("python")
     pc.setPythonContext(context)

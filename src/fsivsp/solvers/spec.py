@@ -15,6 +15,10 @@ from .direct import available_methods
 PETSC_OPTION = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 
+#: The velocity block's preconditioners (``[solver.petsc] velocity_preconditioner``; `petsc.velocity_options`).
+VELOCITY_PRECONDITIONERS = ("boomeramg", "ssor", "p-multigrid", "condensed")
+
+
 def solver_names() -> list[str]:
     """The methods a `SolverSpec` takes here."""
     return ["auto", "direct", "iterative", "petsc", *available_methods()]
@@ -38,6 +42,9 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
             options[name] = str(value)
         else:
             raise expected(f"{where}.{key}", "a string, a number or true/false", value)
+    if options.get("velocity_preconditioner", VELOCITY_PRECONDITIONERS[0]) not in VELOCITY_PRECONDITIONERS:
+        raise expected(f"{where}.velocity_preconditioner", f"one of {', '.join(VELOCITY_PRECONDITIONERS)}",
+                       options["velocity_preconditioner"])
     return options
 
 
