@@ -1,4 +1,5 @@
-"""The velocity block of `petsc.PETScSolver`'s fieldsplit for Taylor–Hood: a two-level p-multigrid cycle.
+"""The velocity block of `petsc.PETScSolver`'s fieldsplit over its vertex dofs: a two-level p-multigrid cycle for
+Taylor–Hood, MINI's bubbles condensed.
 
 BoomerAMG on the hierarchical P_{k+1} basis of Taylor–Hood's velocity coarsens poorly (the edge and face dofs are not
 an M-matrix's unknowns: Taylor–Hood k = 2 in 3D took 47–54 iterations, 12–13 with the velocity block factorised;
@@ -14,6 +15,14 @@ S a smoother on all velocity dofs (``velocity_pmg_smooth_``: two symmetric SOR s
 Richardson with PCSOR, SSOR within each rank) and A_vv⁻¹ one BoomerAMG V-cycle with hypre's elasticity options and the
 rigid motions (the near-nullspace's vertex values) attached (``velocity_pmg_coarse_``). Issue 33's prototype: the 3D
 solid ball, Taylor–Hood k = 2, levels 0–1, tolerance 1e-12: 47 → 50 iterations become 25 → 26.
+
+MINI's bubbles are cell dofs, one a component, so A's bubble block A_bb is block diagonal and inverted exactly; the
+condensed form (`Condensed`, ``velocity_preconditioner = "condensed"``) is A's block factorisation over (bubble,
+vertex) with one BoomerAMG cycle on the vertex Schur complement S = A_vv − A_vb A_bb⁻¹ A_bv:
+
+    y_b = A_bb⁻¹ b_b;   y_v = S⁻¹ (b_v − A_vb y_b);   y_b −= A_bb⁻¹ A_bv y_v,
+
+exact where S⁻¹ is (docs/solvers.md, "MINI's bubbles condensed").
 """
 from __future__ import annotations
 
