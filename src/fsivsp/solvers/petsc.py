@@ -173,15 +173,16 @@ DEFAULTS_CONDENSED: dict[str, str] = {
 }
 
 
-def velocity_options(spaces: Spaces, name: str | None = None) -> dict[str, str]:
+def velocity_options(spaces: Spaces, name: str | None = None, nodal: bool = True) -> dict[str, str]:
     """The velocity block's options over `DEFAULTS` for the preconditioner ``name`` (`spec.VELOCITY_PRECONDITIONERS`),
     by default: BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`); MINI's bubbles condensed in 3D
     (`DEFAULTS_CONDENSED`); for Taylor–Hood in 3D or with a solid pressure the p-multigrid of `DEFAULTS_PMG`. MINI in
     2D and Taylor–Hood in 2D without a solid pressure keep BoomerAMG (the paper's discretisation: its measured tables
-    unchanged); SSOR where the mass dominates is `petsc_mass.ratio_for_ssor`'s choice."""
+    unchanged); SSOR where the mass dominates is `petsc_mass.ratio_for_ssor`'s choice. ``nodal``: PETSc's velocity
+    rows are node by node (`petsc_layout`), which the condensed bubbles need (a cell's d bubble rows adjacent)."""
     three = spaces.mesh.dim == 3
     if name is None:
-        name = ("condensed" if spaces.family == "mini" and three else
+        name = ("condensed" if spaces.family == "mini" and three and nodal else
                 "p-multigrid" if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None) else
                 "boomeramg")
     options = {"velocity_preconditioner": name, **(DEFAULTS_3D if three else {}), **(ELASTICITY_3D if three else {})}
@@ -247,7 +248,7 @@ class PETScSolver:
         solid = spaces.solid_pressure is not None
         given = option_names(options or {}, PREFIX)
         defaults = {**(AUTO_STOPPING if self.reduction is not None else {}), **DEFAULTS,
-                    **velocity_options(spaces, given.get("velocity_preconditioner")),
+                    **velocity_options(spaces, given.get("velocity_preconditioner"), L.blocksize == spaces.mesh.dim),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),

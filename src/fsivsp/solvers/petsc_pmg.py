@@ -45,10 +45,8 @@ class TwoLevel:
         self.a, self.vertex, self.smoother, self.coarse = a, vertex, smoother, coarse
         self._r, self._t = a.createVecs()
         self._rc, self._ec = coarse.getOperators()[0].createVecs()
-        self.applications = 0
 
     def apply(self, pc, b, y) -> None:
-        self.applications += 1
         a, r, t = self.a, self._r, self._t
         self.smoother.solve(b, y)                    # pre-smoothing from 0
         a.mult(y, r)
@@ -107,10 +105,8 @@ class Condensed:
         self.vertex, self.bubble = vertex, bubble
         self._v = a_vb.createVecLeft()
         self._b, self._t = inverse.createVecs()
-        self.applications = 0
 
     def apply(self, pc, b, y) -> None:
-        self.applications += 1
         b_b, b_v = b.getSubVector(self.bubble), b.getSubVector(self.vertex)
         y_b, y_v = y.getSubVector(self.bubble), y.getSubVector(self.vertex)
         self.inverse.mult(b_b, y_b)                 # y_b = A_bb⁻¹ b_b
@@ -148,6 +144,9 @@ def velocity_block(solver, spaces: Spaces) -> TwoLevel | Condensed:
         bubble.setBlockSize(d)
     a_vv = a.createSubMatrix(vertex, vertex)
     condensed = solver.options.get("velocity_preconditioner") == "condensed"
+    if condensed and not nodal:
+        raise CaseError('solver.petsc.velocity_preconditioner: expected "condensed" only where every velocity '
+                        "component is free on the same dofs (PETSc's rows node by node), got other dofs per component")
     if condensed:
         a_bb, a_vb, a_bv = (a.createSubMatrix(rows, columns) for rows, columns in
                             ((bubble, bubble), (vertex, bubble), (bubble, vertex)))
