@@ -77,7 +77,8 @@ def test_serial_helpers_are_identities():
     (TUBE, "mini", "direct", 2, RELATIVE), (DISK, None, None, 2, 1e-8),
     (BALL.replace("T = 0.1\n", "T = 0.04\n") + '[discretisation]\nfamily = "taylor_hood"\norder = 2\n', None,
      "petsc", 2, 1e-8),
-    (BALL + '[discretisation]\nsolid_pressure = "continuous"\n', None, "petsc", 2, RELATIVE)],
+    (BALL + '[discretisation]\nsolid_pressure = "continuous"\n[solver.petsc]\nvelocity_preconditioner = "condensed"\n',
+     None, "petsc", 2, RELATIVE)],
     ids=["ball-3d-iterative", "tube-2d-auto-petsc", "ball-3d-refined-on-3-ranks", "tube-2d-mumps", "disk-2d-curved",
          "ball-3d-taylor-hood-2-p-multigrid", "ball-3d-solid-pressure-condensed"])
 def test_run_equals_serial(tmp_path, text, family, solver, ranks, relative):

@@ -161,8 +161,9 @@ PMG_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"
 #: unknowns, Δt = 0.02) the first coarse level keeps 44 685 of 63 381 rows at 384 entries a row with `ELASTICITY_3D`
 #: (operator complexity 13.0; 2.8 with aggressive coarsening, at 8.2 iterations a step), S's hierarchy 2.7; the step
 #: takes 0.26 s against 1.23 s at 5.0 iterations either way. With a solid pressure (MINI's bubbles on the solid cells
-#: too), the solid ball at λ/μ = 10⁴, level 3 (313 440 unknowns), the auto tolerance: 18.0 iterations and 7.9 s for
-#: three steps against 17.0 and 20.1 s.
+#: too) it is not the default: the solid ball at λ/μ = 10⁴, the auto tolerance, 3 steps, levels 0–3: 10.7, 10.0, 12.0,
+#: 18.0 iterations against BoomerAMG's 10.7, 10.3, 11.3, 17.0 (+20 % from level 1 to 2 against +10 %), though level
+#: 3's (313 440 unknowns) three steps take 7.9 s against 20.1 s.
 DEFAULTS_CONDENSED: dict[str, str] = {
     "velocity_preconditioner": "condensed",
     "fieldsplit_velocity_pc_type": "none",   # replaced by the condensed block after the fieldsplit's set-up
@@ -175,14 +176,16 @@ DEFAULTS_CONDENSED: dict[str, str] = {
 
 def velocity_options(spaces: Spaces, name: str | None = None, nodal: bool = True) -> dict[str, str]:
     """The velocity block's options over `DEFAULTS` for the preconditioner ``name`` (`spec.VELOCITY_PRECONDITIONERS`),
-    by default: BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`); MINI's bubbles condensed in 3D
-    (`DEFAULTS_CONDENSED`); for Taylor–Hood in 3D or with a solid pressure the p-multigrid of `DEFAULTS_PMG`. MINI in
-    2D and Taylor–Hood in 2D without a solid pressure keep BoomerAMG (the paper's discretisation: its measured tables
-    unchanged); SSOR where the mass dominates is `petsc_mass.ratio_for_ssor`'s choice. ``nodal``: PETSc's velocity
-    rows are node by node (`petsc_layout`), which the condensed bubbles need (a cell's d bubble rows adjacent)."""
+    by default: BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`); MINI's bubbles condensed in 3D without a
+    solid pressure (`DEFAULTS_CONDENSED`); for Taylor–Hood in 3D or with a solid pressure the p-multigrid of
+    `DEFAULTS_PMG`. MINI in 2D or with a solid pressure and Taylor–Hood in 2D without one keep BoomerAMG (the paper's
+    discretisation: its measured tables unchanged; with a solid pressure the condensed block is faster but grows
+    more, `DEFAULTS_CONDENSED`); SSOR where the mass dominates is `petsc_mass.ratio_for_ssor`'s choice. ``nodal``:
+    PETSc's velocity rows are node by node (`petsc_layout`), which the condensed bubbles need (a cell's d bubble rows
+    adjacent)."""
     three = spaces.mesh.dim == 3
     if name is None:
-        name = ("condensed" if spaces.family == "mini" and three and nodal else
+        name = ("condensed" if spaces.family == "mini" and three and nodal and spaces.solid_pressure is None else
                 "p-multigrid" if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None) else
                 "boomeramg")
     options = {"velocity_preconditioner": name, **(DEFAULTS_3D if three else {}), **(ELASTICITY_3D if three else {})}
