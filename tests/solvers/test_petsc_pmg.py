@@ -103,3 +103,14 @@ def test_taylor_hood_2_in_3d(solid_pressure):
 def test_taylor_hood_2_in_3d_equals_direct(same_errors):
     """Iterative = direct with the p-multigrid in 3D (Taylor–Hood k = 2, no solid pressure, level 0)."""
     same_errors(ball("none"), range(0, 1))
+
+
+def test_a_named_preconditioner_brings_its_options(example):
+    """``velocity_preconditioner = "boomeramg"`` where the p-multigrid is the default (Taylor–Hood k = 1 in 3D,
+    level 0): BoomerAMG on the whole block, 20.7 iterations a step (before, the p-multigrid's ``pc_type none`` stayed
+    and the block went unpreconditioned: no convergence in 2 000 iterations)."""
+    case = example("solid_in_fluid_3d", family="taylor_hood", order=1)
+    case = dataclasses.replace(case, T=3 * case.dt).with_solver(method="petsc", tolerance=1e-12,
+                                                                petsc={"velocity_preconditioner": "boomeramg"})
+    record = study(case, range(0, 1))[0]
+    assert record["preconditioner"]["velocity"] == "boomeramg" and record["iterations"]["mean"] <= 30, record
