@@ -7,7 +7,7 @@ scheme with ``--solver`` at ``--tolerance`` (default 1e-12 of the right-hand sid
 ``auto`` measures the auto tolerance), no error norms, with the case's ``solid_pressure`` (default "auto": a solid
 pressure where λ ≥ 10 μ). ``--tables`` runs only the named tables (comma-separated), ``--dt`` only these time steps
 of the "levels and time steps" table. Each record names the velocity block's preconditioner (BoomerAMG, SSOR where
-the mass dominates, the p-multigrid) and the stiffness ratio that chose it.
+the mass dominates, the p-multigrid, MINI's condensed bubbles) and the stiffness ratio that chose it.
 
     python benchmarks/robustness.py --solver petsc --json benchmarks/robustness_petsc.json
     python benchmarks/robustness.py --solver iterative --json benchmarks/robustness.json
@@ -21,6 +21,7 @@ import dataclasses
 import time
 from pathlib import Path
 
+from fsivsp.app.arguments import tolerance_arg
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.paper import paper_case
 from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
@@ -114,9 +115,9 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--tables", default=None, help="only these tables (comma-separated names)")
     parser.add_argument("--dt", default=None, help="only these time steps (comma-separated)")
-    parser.add_argument("--tolerance", default="1e-12", help="1e-12 (the default), another number, or auto")
+    parser.add_argument("--tolerance", type=tolerance_arg, default=1e-12,
+                        help="1e-12 (the default), another number, or auto")
     args = parser.parse_args()
-    tolerance = args.tolerance if args.tolerance == "auto" else float(args.tolerance)
     time_steps = TIME_STEPS if args.dt is None else tuple(float(dt) for dt in args.dt.split(","))
     tables = None if args.tables is None else set(args.tables.split(","))
     records = []
@@ -124,7 +125,7 @@ def main() -> None:
         if tables is not None and table not in tables:
             continue
         record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
-                  **iterations(case, level, args.steps, args.solver, tolerance)}
+                  **iterations(case, level, args.steps, args.solver, args.tolerance)}
         records.append(record)
         if args.json:
             write_json(args.json, records)   # as it goes: a long run keeps what it measured

@@ -20,12 +20,9 @@ import sys
 import time
 from pathlib import Path
 
+from fsivsp.app.arguments import tolerance_arg
+
 EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
-
-
-def tolerance_value(text: str) -> float | str:
-    """``auto`` or a number."""
-    return text if text == "auto" else float(text)
 
 
 def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float | str) -> dict:
@@ -127,7 +124,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3)
     parser.add_argument("--direct-max", type=int, default=3, help="the highest level the direct solver runs")
     parser.add_argument("--maxh", type=float, default=None, help="the coarse ball's mesh size (default: the example's)")
-    parser.add_argument("--tolerance", type=tolerance_value, default="auto",
+    parser.add_argument("--tolerance", type=tolerance_arg, default="auto",
                         help="the iterative solver's tolerance: auto (the default) or a number")
     parser.add_argument("--solvers", default="direct,iterative,petsc", help="comma-separated solver names")
     parser.add_argument("--json", type=Path, default=None)
@@ -137,7 +134,7 @@ def main() -> None:
     if args.child:
         level, solver, steps, maxh, tolerance = args.child.split(":")
         print(json.dumps(measure(int(level), solver, int(steps), None if maxh == "None" else float(maxh),
-                                 tolerance_value(tolerance))))
+                                 tolerance_arg(tolerance))))
         return
     low, high = (int(x) for x in args.levels.split("-"))
     rows = []

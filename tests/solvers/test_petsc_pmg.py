@@ -31,14 +31,14 @@ def counts_pmg(case, levels):
 def test_where_each_is_the_default(family, dim, solid_pressure, expected):
     """The p-multigrid for Taylor–Hood in 3D or with a solid pressure, the condensed bubbles for MINI in 3D without
     one; MINI in 2D or with a solid pressure and the paper's Taylor–Hood in 2D keep BoomerAMG."""
-    from fsivsp.solvers.petsc import velocity_options
+    from fsivsp.solvers.petsc import default_velocity
 
     case = paper_case(1e-2) if dim == 2 else load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
     mesh = refined(case.coarse_mesh(), 0, case.discretisation.project_refinement)
     spaces = build_spaces(mesh, family, 1, dirichlet_boundaries(mesh), solid_pressure=solid_pressure)
-    assert velocity_options(spaces)["velocity_preconditioner"] == expected
+    assert default_velocity(spaces) == expected
     if expected == "condensed":  # a cell's bubble rows apart (a component free elsewhere): BoomerAMG
-        assert velocity_options(spaces, nodal=False)["velocity_preconditioner"] == "boomeramg"
+        assert default_velocity(spaces, nodal=False) == "boomeramg"
 
 
 def test_condensed_with_schur_factorised_is_exact(example):

@@ -133,7 +133,7 @@ AUTO_STOPPING: dict[str, str] = {"ksp_converged_use_initial_residual_norm": "tru
 _ELASTICITY = {key.removeprefix("fieldsplit_velocity_"): value for key, value in ELASTICITY_3D.items()}
 
 #: The velocity block by the two-level p-multigrid of `petsc_pmg` (Taylor–Hood where it is the default,
-#: `velocity_options`): two symmetric SOR sweeps on all velocity dofs, one BoomerAMG V-cycle with hypre's elasticity
+#: `default_velocity`): two symmetric SOR sweeps on all velocity dofs, one BoomerAMG V-cycle with hypre's elasticity
 #: options on the vertex (P1) dofs (in 3D over the 3D settings of `DEFAULTS_3D`, as on the velocity).
 DEFAULTS_PMG: dict[str, str] = {
     "velocity_preconditioner": "p-multigrid",
@@ -174,20 +174,26 @@ DEFAULTS_CONDENSED: dict[str, str] = {
 }
 
 
-def velocity_options(spaces: Spaces, name: str | None = None, nodal: bool = True) -> dict[str, str]:
-    """The velocity block's options over `DEFAULTS` for the preconditioner ``name`` (`spec.VELOCITY_PRECONDITIONERS`),
-    by default: BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`); MINI's bubbles condensed in 3D without a
-    solid pressure (`DEFAULTS_CONDENSED`); for Taylor–Hood in 3D or with a solid pressure the p-multigrid of
-    `DEFAULTS_PMG`. MINI in 2D or with a solid pressure and Taylor–Hood in 2D without one keep BoomerAMG (the paper's
-    discretisation: its measured tables unchanged; with a solid pressure the condensed block is faster but grows
-    more, `DEFAULTS_CONDENSED`); SSOR where the mass dominates is `petsc_mass.ratio_for_ssor`'s choice. ``nodal``:
-    PETSc's velocity rows are node by node (`petsc_layout`), which the condensed bubbles need (a cell's d bubble rows
-    adjacent)."""
+def default_velocity(spaces: Spaces, nodal: bool = True) -> str:
+    """The velocity block's preconditioner by default (before `petsc_mass.ratio_for_ssor`'s SSOR): MINI's bubbles
+    condensed in 3D without a solid pressure (``nodal``: PETSc's velocity rows node by node, `petsc_layout`, so that a
+    cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a solid pressure the p-multigrid; else BoomerAMG.
+    MINI in 2D or with a solid pressure and Taylor–Hood in 2D without one keep BoomerAMG (the paper's
+    discretisation: its measured tables unchanged; with a solid pressure the condensed block is faster but grows more,
+    `DEFAULTS_CONDENSED`)."""
     three = spaces.mesh.dim == 3
-    if name is None:
-        name = ("condensed" if spaces.family == "mini" and three and nodal and spaces.solid_pressure is None else
-                "p-multigrid" if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None) else
-                "boomeramg")
+    if spaces.family == "mini" and three and nodal and spaces.solid_pressure is None:
+        return "condensed"
+    if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None):
+        return "p-multigrid"
+    return "boomeramg"
+
+
+def velocity_options(spaces: Spaces, name: str) -> dict[str, str]:
+    """The velocity block's options over `DEFAULTS` for the preconditioner ``name`` (`spec.VELOCITY_PRECONDITIONERS`):
+    BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`), `DEFAULTS_SSOR`, `DEFAULTS_CONDENSED` or the
+    p-multigrid of `DEFAULTS_PMG`."""
+    three = spaces.mesh.dim == 3
     options = {"velocity_preconditioner": name, **(DEFAULTS_3D if three else {}), **(ELASTICITY_3D if three else {})}
     if name == "ssor":
         options.update(DEFAULTS_SSOR)
@@ -250,15 +256,16 @@ class PETScSolver:
 
         solid = spaces.solid_pressure is not None
         given = option_names(options or {}, PREFIX)
+        velocity = str(given.get("velocity_preconditioner", default_velocity(spaces, L.blocksize == spaces.mesh.dim)))
+        self.stiffness_ratio = ratio_for_ssor(self, spaces, materials, velocity, given)
+        if self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED:
+            velocity = "ssor"
         defaults = {**(AUTO_STOPPING if self.reduction is not None else {}), **DEFAULTS,
-                    **velocity_options(spaces, given.get("velocity_preconditioner"), L.blocksize == spaces.mesh.dim),
+                    **velocity_options(spaces, velocity),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
-        self.stiffness_ratio = ratio_for_ssor(self, spaces, materials, defaults, given)
-        if self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED:
-            defaults.update(DEFAULTS_SSOR)
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
             self.ksp.setOptionsPrefix(PREFIX)

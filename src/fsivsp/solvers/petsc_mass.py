@@ -51,12 +51,12 @@ DEFAULTS_SSOR: dict[str, str] = {
 MASS_DOMINATED = 30.0
 
 
-def ratio_for_ssor(solver, spaces: Spaces, materials: Materials, defaults: Mapping[str, str],
-                  given: Mapping[str, object]) -> float | None:
-    """The stiffness ratio q where the velocity block may take `DEFAULTS_SSOR` (at q ≤ `MASS_DOMINATED`): its default
-    is BoomerAMG or MINI's condensed bubbles (not the p-multigrid) and the user's options ``given`` (keys without the
-    prefix) set nothing of it; else None (not computed)."""
-    if (defaults["velocity_preconditioner"] not in ("boomeramg", "condensed") or "velocity_preconditioner" in given
+def ratio_for_ssor(solver, spaces: Spaces, materials: Materials, velocity: str,
+                   given: Mapping[str, object]) -> float | None:
+    """The stiffness ratio q where the velocity block may take `DEFAULTS_SSOR` (at q ≤ `MASS_DOMINATED`): its
+    preconditioner ``velocity`` is the default BoomerAMG or MINI's condensed bubbles (not the p-multigrid) and the
+    user's options ``given`` (keys without the prefix) set nothing of it; else None (not computed)."""
+    if (velocity not in ("boomeramg", "condensed") or "velocity_preconditioner" in given
             or any(key.startswith(("fieldsplit_velocity_", COARSE)) for key in given)):
         return None
     return stiffness_ratio(solver, spaces, materials)
