@@ -3,11 +3,12 @@
     with fsivsp.runtime.threads.using(2):
         fsivsp.study(case, range(3))
 
-A run is bit-identical from one process to the next for a given count (spaces, h1amg's set-up and integrals made
-on one thread, `sequential`, and PARDISO's reproducibility mode); between counts it agrees to round-off
-(docs/solvers.md, "Threads"). Default (`default_threads`): ``FSIVSP_THREADS`` if set, else the cores this process
-may use; a count is the node's, divided among the MPI ranks on it (`per_rank`). A default run takes them only where
-they pay (`fit`): not for a small problem, nor for a 2D factorisation.
+A run is bit-identical from one process to the next for a given count (spaces, curved geometry and interpolated
+initial data made on one thread, `sequential`; integrals summed in the cells' order, `integrate`; PARDISO's
+reproducibility mode); between counts it agrees to round-off (docs/solvers.md, "Threads"). Default
+(`default_threads`): ``FSIVSP_THREADS`` if set, else the cores this process may use; a count is the node's, divided
+among the MPI ranks on it (`per_rank`). A default run takes them only where they pay (`fit`): not for a small
+problem, nor for a 2D factorisation.
 """
 from __future__ import annotations
 
