@@ -116,7 +116,7 @@ def older_format(path, written: int, tmp_path):
     """The checkpoint ``path`` as a version of format ``written`` wrote it: without the vectors added since."""
     import json
     with np.load(path) as data:
-        arrays = {name: data[name] for name in data.files if checkpoint.ADDED.get(name, 0) <= written}
+        arrays = {name: data[name] for name in data.files if checkpoint.added(name) <= written}
     saved = json.loads(str(arrays["fingerprint"]))
     arrays["fingerprint"] = np.array(json.dumps({**saved, "format": written}, sort_keys=True))
     arrays["format"] = np.array(written, dtype=np.int64)
@@ -126,9 +126,10 @@ def older_format(path, written: int, tmp_path):
     return old
 
 
-def test_format_3_is_read_and_older_ones_refused(tmp_path, mesh):
+def test_formats_3_and_4_are_read_and_older_ones_refused(tmp_path, mesh):
     """A checkpoint of format 3 (before the warm start kept xⁿ⁻¹) resumes: the next step starts from xⁿ, as format 3's
-    runs did, and the state is the one saved; format 2 is refused in one line."""
+    runs did, and the state is the one saved; one of format 4 brings its xⁿ⁻¹ to the start; format 2 is refused in
+    one line."""
     scheme = make_scheme(mesh)
     for _ in range(3):
         scheme.step()
@@ -140,9 +141,11 @@ def test_format_3_is_read_and_older_ones_refused(tmp_path, mesh):
     assert resumed.n == 3
     for a, b in zip(vectors(resumed), vectors(scheme)):
         assert np.array_equal(a, b)
-    newest = scheme.state.vec.FV().NumPy()
-    assert np.array_equal(resumed.warm.older.FV().NumPy(), newest)   # xⁿ⁻¹ := xⁿ: the start 2xⁿ − xⁿ⁻¹ is xⁿ
-    assert not np.array_equal(scheme.warm.older.FV().NumPy(), newest)
+    assert resumed.warm.count[0] == 1 < scheme.warm.count[0]   # xⁿ alone: the next step starts from xⁿ
+    fourth = make_scheme(mesh)   # format 4 held xⁿ⁻¹
+    load_checkpoint(older_format(path, 4, tmp_path), fourth)
+    assert fourth.warm.count[0] == 2
+    assert np.array_equal(fourth.warm.solutions[1].FV().NumPy(), scheme.warm.solutions[1].FV().NumPy())
 
     with pytest.raises(CheckpointError) as info:
         load_checkpoint(older_format(path, 2, tmp_path), make_scheme(mesh))

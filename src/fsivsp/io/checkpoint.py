@@ -2,12 +2,12 @@
 
 A checkpoint is a ``.npz`` file holding the step number, the time, the coefficient
 vectors of the state (vⁿ, pⁿ) and the displacement uⁿ_h (which gives σⁿ_h, see `scheme`) with the
-time scheme's history (`Scheme.history`: BDF2's level n − 1, the θ-scheme's multiplier, the previous step's
-solution xⁿ⁻¹ from which the iterative solver's start 2xⁿ − xⁿ⁻¹ is formed), a
+time scheme's history (`Scheme.history`: BDF2's level n − 1, the θ-scheme's multiplier, the solutions before xⁿ
+that the iterative solver's start combines, `timestepping.warmstart`), a
 fingerprint of the discretisation and a JSON ``extra`` dictionary (histories, the
 entries of a `output.VTKSeries`, …). Restoring is exact: a resumed run reproduces the
-uninterrupted one bit for bit. A checkpoint of format 3 (before the warm start) is still read: its next step starts
-from xⁿ, as it did then; older formats are refused in one line.
+uninterrupted one bit for bit. Checkpoints of formats 3 (before the warm start) and 4 (xⁿ⁻¹ alone) are still read:
+their next step's start combines the solutions they hold; older formats are refused in one line.
 
 Under mpirun every rank writes its own part, ``checkpoint_{step}.parts/rank{r}.npz`` (its local vectors,
 cumulated, and its fingerprint), and only then rank 0 writes the ``.npz`` file itself, the manifest: step, time,
@@ -37,11 +37,15 @@ import numpy as np
 from ..runtime import parallel
 from . import atomic
 
-FORMAT = 4  # 2: the displacement instead of the stress (lean operators); 3: time schemes; 4: xⁿ⁻¹ (warm start)
+#: 2: the displacement instead of the stress (lean operators); 3: time schemes; 4: xⁿ⁻¹ (warm start); 5: the solutions
+#: before xⁿ that the minimal-residual start combines, and their count.
+FORMAT = 5
 #: The formats this version reads, and the vectors of `Scheme.history` a format added: a checkpoint of an older
 #: format readable here lacks them and the scheme completes its history (`Scheme.complete_history`).
-READABLE = (3, 4)
-ADDED = {"previous_solution": 4}
+READABLE = (3, 4, 5)
+ADDED = {"previous_solution": 4, "start_count": 5}
+#: The format that added the start's older solutions (``previous_solution_2``, …).
+ADDED_OLDER = 5
 PREFIX = "checkpoint"
 
 
@@ -178,8 +182,7 @@ def load_checkpoint(path: str | Path, scheme) -> dict:
     for name, values in vectors.items():
         targets[name][:] = values
     scheme.time, scheme.n = time, step
-    if missing := set(targets) - set(vectors):
-        scheme.complete_history(missing)
+    scheme.restored(set(targets) - set(vectors))
     return extra
 
 
@@ -195,6 +198,11 @@ def _read_manifest(path: Path, ranks: int) -> tuple[int, float, dict, str | None
     token = str(contents["token"]) if "token" in contents else None
     return (int(contents["step"]), float(contents["time"]), json.loads(contents["extra"].tobytes().decode()),
             token)
+
+
+def added(name: str) -> int:
+    """The format that added the history vector ``name`` (0: every readable format has it)."""
+    return ADDED.get(name, ADDED_OLDER if name.startswith("previous_solution_") else 0)
 
 
 def _read_part(path: Path, current: dict, targets: dict[str, np.ndarray], token: str | None) -> dict:
@@ -213,7 +221,7 @@ def _read_part(path: Path, current: dict, targets: dict[str, np.ndarray], token:
     if problems:
         raise CheckpointError(f"checkpoint {path}: does not match this run: {'; '.join(problems)}")
     present = {name: target for name, target in targets.items()
-               if name in contents or ADDED.get(name, 0) <= written}
+               if name in contents or added(name) <= written}
     for name, target in present.items():
         values = contents.get(name)
         if values is None or values.shape != target.shape:

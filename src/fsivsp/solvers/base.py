@@ -40,7 +40,8 @@ class NotConverged(SolverError):
 
 class StepSolver(Protocol):
     """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: where an iterative method
-    starts; ``predicted``: whether that is the extrapolation 2xⁿ − xⁿ⁻¹, not xⁿ, which the auto tolerance reads) and
+    starts; ``reference``: ‖b − Ax̃‖ of the reference start x̃ that the auto tolerance reduces, None: the guess's own;
+    ``predicted``: whether x̃ is the extrapolation 2xⁿ − xⁿ⁻¹, not xⁿ; `timestepping.warmstart`) and
     a record for reports; ``overlap``: whether a solve may run concurrently with other work of the scheme (not when
     it communicates between MPI ranks)."""
 
@@ -49,7 +50,8 @@ class StepSolver(Protocol):
     overlap: bool
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False) -> None: ...
+                   guess: ngs.BaseVector | None = None, predicted: bool = False,
+                   reference: float | None = None) -> None: ...
 
     def progress(self) -> str: ...
 

@@ -334,7 +334,7 @@ class DirectSolver:
         """``out[free] = A_ff^{-1} rhs[free]``, ``out[non-free] = 0``."""
         out.data = self.inverse * rhs
 
-    def solve_step(self, rhs, boundary, out, guess=None, predicted=False) -> None:
+    def solve_step(self, rhs, boundary, out, guess=None, predicted=False, reference=None) -> None:
         """``out = boundary + A_ff^{-1} rhs``: the scheme's step (`fsivsp.solvers.StepSolver`; a direct
         solver needs no ``guess``)."""
         out.data = boundary

@@ -368,16 +368,17 @@ class PETScSolver:
         return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False) -> None:
-        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself; ``predicted``: it is the extrapolated
-        start, `_stopping`)."""
+                   guess: ngs.BaseVector | None = None, predicted: bool = False,
+                   reference: float | None = None) -> None:
+        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself; ``reference`` and ``predicted``: the
+        reference start's residual and whether it is the extrapolation, `_stopping`)."""
         self._load_vector(rhs, self._b)
         if guess is None:
             self._x.set(0.0)
         else:
             self._load_vector(guess, self._x)
         norm = self._b.norm()
-        self._stopping(norm, None if guess is None else predicted)
+        self._stopping(norm, None if guess is None else predicted, reference)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
@@ -393,14 +394,18 @@ class PETScSolver:
             out.Cumulate()
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
-    def _stopping(self, norm: float, predicted: bool | None) -> None:
+    def _stopping(self, norm: float, predicted: bool | None, reference: float | None) -> None:
         """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start also
-        ‖r‖ ≤ ρ ‖b − Ax₀‖, whichever comes first: ρ = ``reduction`` from the extrapolated start (``predicted``),
-        its square from another (`base.START_REDUCTION`; None: no start)."""
+        ‖r‖ ≤ ρ ‖b − Ax̃‖, whichever comes first, x̃ the reference start (``reference`` = ‖b − Ax̃‖; None: the start
+        x₀ itself): ρ = ``reduction`` from the extrapolation (``predicted``), its square from another
+        (`base.START_REDUCTION`; ``predicted`` None: no start)."""
         if self.reduction is not None:   # PETSc stops at ‖r‖ ≤ max(rtol ‖r₀‖, atol) (`AUTO_STOPPING`)
             started = predicted is not None
             rtol = (self.reduction if predicted else self.reduction**2) if started else self.tol
-            self.ksp.setTolerances(rtol=rtol, atol=self.tol * norm if started else 0.0, max_it=self.maxiter)
+            floor = self.tol * norm if started else 0.0
+            if started and reference is not None:
+                rtol, floor = 0.0, max(rtol * reference, floor)
+            self.ksp.setTolerances(rtol=rtol, atol=floor, max_it=self.maxiter)
 
     def destroy(self) -> None:
         """Free the PETSc objects (at exit: `petsc_init.register`)."""

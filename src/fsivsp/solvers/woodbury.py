@@ -50,9 +50,10 @@ class WoodburySolver:
         return np.array([_dot(c, x) for c in self.vectors])
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False) -> None:
+                   guess: ngs.BaseVector | None = None, predicted: bool = False,
+                   reference: float | None = None) -> None:
         """out = the solution of (A + C Γ Cᵀ) x = rhs on the free dofs with x = boundary on the others."""
-        self.base.solve_step(rhs, boundary, out, guess, predicted)
+        self.base.solve_step(rhs, boundary, out, guess, predicted, reference)
         for y, gamma, q in zip(self.solutions, self.weights, self._inverse @ self.flows(out)):
             out.data -= self._scalar(gamma * q) * y
 

@@ -23,13 +23,9 @@ class Scheme(Protocol):
     solver: Any
     spaces: Any
     state: ngs.GridFunction
-    warm: Any    # `warmstart.Extrapolation`
+    warm: Any    # `warmstart.MinimalResidualStart`
 
     def step(self) -> None: ...
-
-    def guess(self) -> ngs.BaseVector: ...
-
-    def latest(self) -> ngs.BaseVector: ...
 
     def right_hand_side(self, current, n: int, out: ngs.BaseVector, boundary: ngs.BaseVector) -> None: ...
 
@@ -56,7 +52,8 @@ def march(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | None =
     solves step n + 1: the stress update, ``observe`` (one call at a time and in order; the last in this
     thread) and the part of the next right-hand side without vⁿ⁺¹ (`Scheme.lagged_right_hand_side`).
     Between two solves only the product R vⁿ⁺¹ is left; each solve starts where `Scheme.step`'s would
-    (2xⁿ − xⁿ⁻¹, `warmstart`), formed before the second thread accepts step n. ``observe`` must not step
+    (`warmstart`), its solution recorded for the next start once the second thread has observed the step before (a
+    checkpoint there holds the starts' history of that step). ``observe`` must not step
     the scheme. The results equal `Scheme.step` repeated up to round-off (7e-14 relative after 100 steps of the
     paper's experiment, level 4). On more threads (`threads.using`) the solve (PARDISO's substitutions, PETSc's
     FGMRES: neither runs under NGSolve's TaskManager) overlaps with the TaskManager stopped, so that the second core
@@ -101,21 +98,14 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
             scheme.lagged_right_hand_side(rhs[(j + 1) % 2], boundaries[(j + 1) % 2], first + j + 1, work,
                                           products[(j - 1) % 2] if products and j > 1 else None)
 
-    def start(j: int) -> ngs.BaseVector:
-        """Step j's start (`warmstart`): 2xⁿ − xⁿ⁻¹ from this loop's solutions of steps j − 1 and j − 2, or xⁿ;
-        for j = 2, xⁿ⁻¹ is the scheme's own, read before the second thread accepts step 1 over it."""
-        if j == 1:
-            return scheme.guess()
-        older = scheme.latest() if j == 2 else solutions[j % 2]
-        return scheme.warm.start(time_scheme, first + j - 1, solutions[(j - 1) % 2], older)
-
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
         for j in range(1, steps + 1):
-            guess = start(j)
+            guess, reference = scheme.warm.start(time_scheme, first + j - 1, rhs[j % 2])
             finished = second.submit(finish_previous, j)
             scheme.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2], guess,
-                                     predicted=scheme.warm.predicts(time_scheme, first + j - 1))
+                                     predicted=scheme.warm.predicts(time_scheme, first + j - 1), reference=reference)
             finished.result()
+            scheme.warm.record(solutions[j % 2])
             if j < steps:
                 scheme.add_lagged(rhs[(j + 1) % 2], solutions[j % 2], first + j + 1,
                                   products[j % 2] if products else None)

@@ -41,7 +41,7 @@ from .initial import initial_multiplier, initial_solid_pressure, initial_state, 
 from .marching import march
 from .outlets import STATE, Outlet
 from .schemes import BDF2, Theta
-from .warmstart import Extrapolation, takes_start
+from .warmstart import MinimalResidualStart, takes_start
 
 
 def solver_stage(solver) -> str:
@@ -136,7 +136,9 @@ class Scheme:
         self._raw = self.state.vec.CreateVector()
         self._explicit = ngs.GridFunction(X)    # ũⁿ
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
-        self.warm = Extrapolation(self.state.vec, takes_start(self.solver))   # xⁿ⁻¹, the start (`warmstart`)
+        #: the last solutions, where an iterative solve starts (`warmstart`)
+        self.warm = MinimalResidualStart(self.state.vec, self._matrix, X.FreeDofs(), takes_start(self.solver),
+                                         time_scheme.damps)
         with stage("initial data"):
             self.initialise()
 
@@ -162,7 +164,7 @@ class Scheme:
         if self.solution is not None:
             self._initial_pressure = d.pressure0 is not None
             initial_multiplier(d, self.state.vec, self.solution, self.time_scheme.start(0).theta)
-        self.warm.shift(self.latest())
+        self.warm.reset(self.latest())
         self.time, self.n = 0.0, 0
 
     def step(self) -> None:
@@ -172,8 +174,10 @@ class Scheme:
             self._start_solve(current, n, self._raw)
         else:
             self.right_hand_side(current, n, self._rhs, self._boundary)
-            self.solver.solve_step(self._rhs, self._boundary, self._raw, self.guess(),
-                                   predicted=self.warm.predicts(self.time_scheme, self.n))
+            start, reference = self.warm.start(self.time_scheme, self.n, self._rhs)
+            self.solver.solve_step(self._rhs, self._boundary, self._raw, start,
+                                   predicted=self.warm.predicts(self.time_scheme, self.n), reference=reference)
+        self.warm.record(self._raw)
         self.accept(self._raw, n, current, None)
 
     def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:
@@ -183,15 +187,15 @@ class Scheme:
         march(self, steps, observe)
 
     def history(self) -> dict[str, ngs.BaseVector | np.ndarray]:
-        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores), the previous raw
-        solution xⁿ⁻¹ included (where the iterative solver starts, `warmstart`: bit for bit on resuming); the outlets'
-        states (P_cⁿ, P_cⁿ⁻¹, Qⁿ each, the same on every rank) as an array."""
+        """The vectors that, with n and tₙ, determine every later step (what a checkpoint stores), the raw solutions
+        before xⁿ included (where the iterative solver starts, `warmstart`: bit for bit on resuming); the outlets'
+        states (P_cⁿ, P_cⁿ⁻¹, Qⁿ each, the same on every rank) and the start's count as arrays."""
         vectors = {"state": self.state.vec, "displacement": self.carried.vec}
         if self.previous is not None:
             vectors.update(previous_state=self.previous[0], previous_displacement=self.previous[1])
         if self.solution is not None:
             vectors["solution"] = self.solution.vec
-        vectors["previous_solution"] = self.warm.older
+        vectors.update(self.warm.history())
         if self.outlets:
             vectors["outlets"] = self._outlet_state
         return vectors
@@ -212,14 +216,13 @@ class Scheme:
         return self.state.vec if self.solution is None else self.solution.vec
 
     def guess(self) -> ngs.BaseVector:
-        """Where an iterative solver starts step n + 1: 2xⁿ − xⁿ⁻¹ (`warmstart`), or xⁿ."""
-        return self.warm.start(self.time_scheme, self.n, self.latest())
+        """The reference start of step n + 1: 2xⁿ − xⁿ⁻¹ (`warmstart`), or xⁿ."""
+        return self.warm.reference(self.time_scheme, self.n)
 
-    def complete_history(self, missing: set[str]) -> None:
-        """After a checkpoint without the ``missing`` vectors of `history` (an older format): xⁿ⁻¹ := xⁿ, so
-        that the next step starts from xⁿ as that format's runs did."""
-        if "previous_solution" in missing:
-            self.warm.shift(self.latest())
+    def restored(self, missing: set[str]) -> None:
+        """After a checkpoint's vectors were loaded into `history`'s, without the ``missing`` ones (an older
+        format): the start's history completed and its products made again (`warmstart`)."""
+        self.warm.restored(self.latest(), missing)
 
     def _combine(self, coefficients, out: ngs.BaseVector) -> None:
         """out = Σ c_k h_k over the history h = (uⁿ, vⁿ, uⁿ⁻¹, vⁿ⁻¹) (``previous`` for the older level)."""
@@ -233,7 +236,6 @@ class Scheme:
         """Make step n the scheme's state: vⁿ, pⁿ = α mⁿ + β p̂ⁿ⁻¹ (`Theta.pressure`), uⁿ_h = ũⁿ + τ vⁿ
         with ũⁿ from the history before it (`timeschemes`), the history shifted; tₙ; then ``observe``."""
         self._combine(current.explicit(self.dt), self._explicit.vec)
-        self.warm.shift(self.latest())
         if self.previous is not None:
             self.previous[0].data = self.state.vec
             self.previous[1].data = self.carried.vec
