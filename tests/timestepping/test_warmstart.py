@@ -80,7 +80,8 @@ def test_fewer_iterations_than_from_the_last_solutions(paper_meshes, monkeypatch
 @needs_petsc
 def test_start_no_worse_than_the_extrapolation(paper_meshes, monkeypatch):
     """Every start's residual is at most the reference start's (2xⁿ − xⁿ⁻¹ from step 3 on, xⁿ before), which the
-    auto tolerance reduces; from step 6 on (the history full), the paper's level 2 smooth in time, at least 5× smaller."""
+    auto tolerance reduces; from step 6 on (the history full), the paper's level 2 smooth in time, at least 5×
+    smaller."""
     ratios = []
     original = warmstart.MinimalResidualStart.start
 
