@@ -60,16 +60,11 @@ def measure(level: int, dt: float, steps: int, solver: str | None) -> dict:
     setup = time.perf_counter() - start
     errors = Errors(scheme, case.exact)
     parts = {"rhs": [], "solve": [], "stress": [], "norms": [], "step": []}
-
-    def solve(scheme):   # `Scheme.step`'s solve: from the start of `warmstart`, recorded for the next
-        start, reference = scheme.warm.start(scheme.time_scheme, scheme.n, scheme._rhs)
-        scheme.solver.solve_step(scheme._rhs, scheme._boundary, scheme._raw, start,
-                                 predicted=scheme.warm.predicts(scheme.time_scheme, scheme.n), reference=reference)
-        scheme.warm.record(scheme._raw)
     for _ in range(steps):
         n, current = scheme.n + 1, scheme.time_scheme
         a = timed(lambda current=current, n=n: scheme.right_hand_side(current, n, scheme._rhs, scheme._boundary))
-        b = timed(lambda: solve(scheme))
+        b = timed(lambda: (scheme.solve(scheme._rhs, scheme._boundary, scheme._raw, scheme.n),
+                           scheme.warm.record(scheme._raw)))
         c = timed(lambda n=n, current=current: scheme.accept(scheme._raw, n, current, None))
         d = timed(lambda: errors(scheme))
         for key, value in zip(("rhs", "solve", "stress", "norms", "step"), (a, b, c, d, a + b + c + d)):

@@ -27,6 +27,8 @@ class Scheme(Protocol):
 
     def step(self) -> None: ...
 
+    def solve(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector, n: int) -> None: ...
+
     def right_hand_side(self, current, n: int, out: ngs.BaseVector, boundary: ngs.BaseVector) -> None: ...
 
     def lagged_right_hand_side(self, out: ngs.BaseVector, boundary: ngs.BaseVector, n: int, work,
@@ -100,10 +102,8 @@ def _overlapped(scheme: Scheme, steps: int, observe: Callable[[Scheme], None] | 
 
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="fsivsp-march") as second:
         for j in range(1, steps + 1):
-            guess, reference = scheme.warm.start(time_scheme, first + j - 1, rhs[j % 2])
             finished = second.submit(finish_previous, j)
-            scheme.solver.solve_step(rhs[j % 2], boundaries[j % 2], solutions[j % 2], guess,
-                                     predicted=scheme.warm.predicts(time_scheme, first + j - 1), reference=reference)
+            scheme.solve(rhs[j % 2], boundaries[j % 2], solutions[j % 2], first + j - 1)
             finished.result()
             scheme.warm.record(solutions[j % 2])
             if j < steps:

@@ -174,11 +174,16 @@ class Scheme:
             self._start_solve(current, n, self._raw)
         else:
             self.right_hand_side(current, n, self._rhs, self._boundary)
-            start, reference = self.warm.start(self.time_scheme, self.n, self._rhs)
-            self.solver.solve_step(self._rhs, self._boundary, self._raw, start,
-                                   predicted=self.warm.predicts(self.time_scheme, self.n), reference=reference)
+            self.solve(self._rhs, self._boundary, self._raw, self.n)
         self.warm.record(self._raw)
         self.accept(self._raw, n, current, None)
+
+    def solve(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector, n: int) -> None:
+        """Step n + 1's solve (1) into ``out`` from the start of `warmstart`; its solution is not yet recorded for
+        the next start (`MinimalResidualStart.record`)."""
+        start, reference = self.warm.start(self.time_scheme, n, rhs)
+        self.solver.solve_step(rhs, boundary, out, start, predicted=self.warm.predicts(self.time_scheme, n),
+                               reference=reference)
 
     def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:
         """``steps`` steps, calling ``observe(self)`` after each one with the scheme at that step; from
