@@ -124,11 +124,6 @@ DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boom
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
 
 
-#: The auto tolerance (`base.START_REDUCTION`): PETSc's relative tolerance taken of the start's residual ‖b − Ax₀‖, not
-#: of ‖b‖ (from zero the two are one).
-AUTO_STOPPING: dict[str, str] = {"ksp_converged_use_initial_residual_norm": "true"}
-
-
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
 _ELASTICITY = {key.removeprefix("fieldsplit_velocity_"): value for key, value in ELASTICITY_3D.items()}
 
@@ -265,7 +260,7 @@ class PETScSolver:
         self.stiffness_ratio = ratio_for_ssor(self, spaces, materials, velocity, given)
         if self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED:
             velocity = "ssor"
-        defaults = {**(AUTO_STOPPING if self.reduction is not None else {}), **DEFAULTS,
+        defaults = {**DEFAULTS,
                     **velocity_options(spaces, velocity),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
@@ -378,6 +373,8 @@ class PETScSolver:
         else:
             self._load_vector(guess, self._x)
         norm = self._b.norm()
+        if guess is not None and reference is None and self.reduction is not None:   # the start's own residual
+            reference = self._start_residual()
         self._stopping(norm, None if guess is None else predicted, reference)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
@@ -394,18 +391,27 @@ class PETScSolver:
             out.Cumulate()
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
+    def _start_residual(self) -> float:
+        """‖b − Ax₀‖ of the loaded right-hand side and start."""
+        residual = self._b.duplicate()
+        self.A.mult(self._x, residual)
+        residual.aypx(-1.0, self._b)
+        norm = residual.norm()
+        residual.destroy()
+        return norm
+
     def _stopping(self, norm: float, predicted: bool | None, reference: float | None) -> None:
         """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start also
-        ‖r‖ ≤ ρ ‖b − Ax̃‖, whichever comes first, x̃ the reference start (``reference`` = ‖b − Ax̃‖; None: the start
-        x₀ itself): ρ = ``reduction`` from the extrapolation (``predicted``), its square from another
-        (`base.START_REDUCTION`; ``predicted`` None: no start)."""
-        if self.reduction is not None:   # PETSc stops at ‖r‖ ≤ max(rtol ‖r₀‖, atol) (`AUTO_STOPPING`)
-            started = predicted is not None
-            rtol = (self.reduction if predicted else self.reduction**2) if started else self.tol
-            floor = self.tol * norm if started else 0.0
-            if started and reference is not None:
-                rtol, floor = 0.0, max(rtol * reference, floor)
-            self.ksp.setTolerances(rtol=rtol, atol=floor, max_it=self.maxiter)
+        ‖r‖ ≤ ρ ‖b − Ax̃‖, whichever comes first, x̃ the reference start (``reference`` = ‖b − Ax̃‖): ρ = ``reduction``
+        from the extrapolation (``predicted``), its square from another (`base.START_REDUCTION`; ``predicted``
+        None: no start, ‖r‖ ≤ tol ‖b‖ alone). PETSc stops at ‖r‖ ≤ max(rtol ‖b‖, atol)."""
+        if self.reduction is None:
+            return
+        if predicted is None:
+            self.ksp.setTolerances(rtol=self.tol, atol=0.0, max_it=self.maxiter)
+        else:
+            rho = self.reduction if predicted else self.reduction**2
+            self.ksp.setTolerances(rtol=0.0, atol=max(rho * reference, self.tol * norm), max_it=self.maxiter)
 
     def destroy(self) -> None:
         """Free the PETSc objects (at exit: `petsc_init.register`)."""

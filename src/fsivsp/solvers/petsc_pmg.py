@@ -137,17 +137,21 @@ def velocity_block(solver, spaces: Spaces) -> TwoLevel | Condensed:
     nodal = solver.layout.blocksize == d
     a = solver.A.createSubMatrix(velocity, velocity)
     a.setBlockSize(solver.layout.blocksize)
-    vertex, bubble = (PETSc.IS().createGeneral(vertex_rows(solver, spaces, part).astype(PETSc.IntType),
-                                               comm=solver.comm) for part in (True, False))
-    if nodal:
-        vertex.setBlockSize(d)
-        bubble.setBlockSize(d)
-    a_vv = a.createSubMatrix(vertex, vertex)
     condensed = solver.options.get("velocity_preconditioner") == "condensed"
     if condensed and not nodal:
         raise CaseError('solver.petsc.velocity_preconditioner: expected "condensed" only where every velocity '
                         "component is free on the same dofs (PETSc's rows node by node), got other dofs per component")
+
+    def index_set(vertex: bool):   # this rank's vertex (else higher) rows as an index set, node by node if nodal
+        rows = PETSc.IS().createGeneral(vertex_rows(solver, spaces, vertex).astype(PETSc.IntType), comm=solver.comm)
+        if nodal:
+            rows.setBlockSize(d)
+        return rows
+
+    vertex = index_set(True)
+    a_vv = a.createSubMatrix(vertex, vertex)
     if condensed:
+        bubble = index_set(False)
         a_bb, a_vb, a_bv = (a.createSubMatrix(rows, columns) for rows, columns in
                             ((bubble, bubble), (vertex, bubble), (bubble, vertex)))
         inverse = bubble_inverse(PETSc, a_bb, d)
@@ -185,7 +189,7 @@ def velocity_block(solver, spaces: Spaces) -> TwoLevel | Condensed:
         solver.keep += [vertex, bubble, a_vv, nullspace, *vectors]
     else:
         context = TwoLevel(a, vertex, smoother, coarse)
-        solver.keep += [a, vertex, bubble, a_vv, nullspace, *vectors]
+        solver.keep += [a, vertex, a_vv, nullspace, *vectors]
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[0].getPC()
     pc.setType("python")
     pc.setPythonContext(context)

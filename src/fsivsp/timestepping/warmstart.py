@@ -129,17 +129,13 @@ class MinimalResidualStart:
             return self.solutions[0], None
         count = int(self.count[0])
         products, differences, residual = self.products, self._differences, self._residual
-        residual.data = self._project * rhs
+        residual.data = self._project * rhs   # b, then b − A x₀
         _cumulated(residual)
-        if self.predicts(time_scheme, n):
-            residual.data -= 2 * products[0] - products[1]
-        else:
-            residual.data -= products[0]
-        reference = ngs.Norm(residual)
+        differences[0].data = residual - (2 * products[0] - products[1] if self.predicts(time_scheme, n)
+                                          else products[0])
+        reference = ngs.Norm(differences[0])
         if not self.combines:
             return self.reference(time_scheme, n), reference
-        residual.data = self._project * rhs
-        _cumulated(residual)
         differences[0].data = products[0]
         for i in range(1, count):
             differences[i].data = products[i - 1] - products[i]
