@@ -162,15 +162,24 @@ PMG_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"
 #: dropped (``truncfactor``): on the ball's level 4 (535 830 unknowns) S's coarse levels densified to operator
 #: complexity 3.3 (the first coarse level 124 entries a row against the fine level's 44), 3.0 with it, in the same
 #: iterations (10 steps: 23, 21, 8, 7, …) and 0.90× the time a step; 0.3 costs an iteration on the first step, 0.5
-#: two a step.
+#: two a step. The cycle smooths by one forward hybrid Gauss–Seidel sweep down and one forward sweep up (PETSc's
+#: default is a symmetric sweep each way, twice the work): on level 4 the cycle costs 5.3 step-matrix products
+#: (PETSc's, one thread) against 10.3; 10 steps took 27, 24, 10, 9, 9, 7, 7, 6, 6, 6 iterations against 23, 21, 9,
+#: 7, 7, 6, 6, 5, 6, 6, at 0.71× the time (forward down and backward up: 0.79×; V(1,0): 38, 35, 16, …). The cycle is
+#: not symmetric; the outer FGMRES does not need it to be. The commutator's Laplacian F takes 4 BoomerAMG cycles (2
+#: with the other velocity preconditioners): here S's cycle, not F's, is most of an iteration, and the robustness
+#: table's 3D rows at Δt = 0.1, 10⁻² take 1.0–6.6 fewer iterations on level 3 at 0.90–0.97× the time (6 cycles: at most
+#: 1.3 fewer); the ball's level 4, 10 steps: 22, 20, 9, 8, 8, 7, 7, 6, 6, 5 at 0.89× the time.
 DEFAULTS_CONDENSED: dict[str, str] = {
     "velocity_preconditioner": "condensed",
     "fieldsplit_velocity_pc_type": "none",   # replaced by the condensed block after the fieldsplit's set-up
+    "schur_laplacian_pc_hypre_boomeramg_max_iter": "4",
     f"{COARSE}pc_type": "hypre",
     **{f"{COARSE}pc_hypre_boomeramg_{key}": value
        for key, value in (("strong_threshold", "0.5"), ("coarsen_type", "HMIS"), ("interp_type", "ext+i"),
                           ("P_max", "4"), ("agg_nl", "0"), ("nodal_coarsen", "4"),
-                          ("truncfactor", "0.2"))},
+                          ("truncfactor", "0.2"), ("relax_type_down", "SOR/Jacobi"),
+                          ("relax_type_up", "SOR/Jacobi"))},
 }
 
 
