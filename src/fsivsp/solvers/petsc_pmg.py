@@ -107,14 +107,14 @@ class Condensed:
         self.inverse, self.a_vb, self.a_bv, self.coarse = inverse, a_vb, a_bv, coarse
         self._b_v, self._r_v, self._y_v = (a_vb.createVecLeft() for _ in range(3))
         self._b_b, self._y_b, self._t_b = (inverse.createVecLeft() for _ in range(3))
-        self.vertex = PETSc.Scatter().create(field, vertex, self._b_v, None)
-        self.bubble = PETSc.Scatter().create(field, bubble, self._b_b, None)
+        self.to_vertex = PETSc.Scatter().create(field, vertex, self._b_v, None)
+        self.to_bubble = PETSc.Scatter().create(field, bubble, self._b_b, None)
         self._back = {"addv": PETSc.InsertMode.INSERT_VALUES, "mode": PETSc.ScatterMode.REVERSE}
 
     def apply(self, pc, b, y) -> None:
         b_b, b_v, y_b, y_v = self._b_b, self._b_v, self._y_b, self._y_v
-        self.bubble.scatter(b, b_b)
-        self.vertex.scatter(b, b_v)
+        self.to_bubble.scatter(b, b_b)
+        self.to_vertex.scatter(b, b_v)
         self.inverse.mult(b_b, y_b)                 # y_b = A_bb⁻¹ b_b
         self.a_vb.mult(y_b, self._r_v)
         b_v.axpy(-1.0, self._r_v)                   # r_v = b_v − A_vb y_b
@@ -122,12 +122,12 @@ class Condensed:
         self.a_bv.mult(y_v, self._t_b)
         self.inverse.mult(self._t_b, b_b)
         y_b.axpy(-1.0, b_b)                         # y_b −= A_bb⁻¹ A_bv y_v
-        self.bubble.scatter(y_b, y, **self._back)
-        self.vertex.scatter(y_v, y, **self._back)
+        self.to_bubble.scatter(y_b, y, **self._back)
+        self.to_vertex.scatter(y_v, y, **self._back)
 
     def destroy(self, pc=None) -> None:
         """Free its PETSc objects (as `TwoLevel.destroy`)."""
-        for obj in (self._b_v, self._r_v, self._y_v, self._b_b, self._y_b, self._t_b, self.vertex, self.bubble,
+        for obj in (self._b_v, self._r_v, self._y_v, self._b_b, self._y_b, self._t_b, self.to_vertex, self.to_bubble,
                     self.inverse, self.a_vb, self.a_bv, self.coarse):
             obj.destroy()
 

@@ -349,7 +349,7 @@ class Scheme:
                 residual.data -= (gamma * flow) * c
             residual.data = free * residual
             residual.FV().NumPy()[pressure] *= scale
-            self.solver.solve_step(residual, zero, correction, zero, predicted=True)
+            self.solver.solve_step(residual, zero, correction, zero, predicted=True)   # auto: ρ of the residual
             correction.FV().NumPy()[pressure] *= scale
             out.data += omega * correction
             if omega * ngs.Norm(correction) <= START_TOLERANCE * ngs.Norm(out):
