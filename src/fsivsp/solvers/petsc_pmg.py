@@ -39,25 +39,24 @@ COARSE = "velocity_pmg_coarse_"
 
 class TwoLevel:
     """PETSc's Python PC of the module's docstring on the velocity matrix ``a``: ``vertex`` the index set of its
-    vertex rows (the coarse space), ``smoother`` a KSP on ``a``, ``coarse`` a PC on ``a``'s vertex block."""
+    vertex rows (the coarse space), reached by a scatter made once (as `Condensed`'s), ``smoother`` a KSP on ``a``,
+    ``coarse`` a PC on ``a``'s vertex block."""
 
-    def __init__(self, a, vertex, smoother, coarse):
-        self.a, self.vertex, self.smoother, self.coarse = a, vertex, smoother, coarse
+    def __init__(self, PETSc, a, vertex, smoother, coarse):
+        self.a, self.smoother, self.coarse = a, smoother, coarse
         self._r, self._t = a.createVecs()
         self._rc, self._ec = coarse.getOperators()[0].createVecs()
+        self.to_vertex = PETSc.Scatter().create(self._r, vertex, self._rc, None)
+        self._prolong = {"addv": PETSc.InsertMode.ADD_VALUES, "mode": PETSc.ScatterMode.REVERSE}
 
     def apply(self, pc, b, y) -> None:
         a, r, t = self.a, self._r, self._t
         self.smoother.solve(b, y)                    # pre-smoothing from 0
         a.mult(y, r)
         r.aypx(-1.0, b)                              # r = b − A y
-        sub = r.getSubVector(self.vertex)            # Pᵀ r: the vertex rows
-        sub.copy(self._rc)
-        r.restoreSubVector(self.vertex, sub)
+        self.to_vertex.scatter(r, self._rc)          # Pᵀ r: the vertex rows
         self.coarse.apply(self._rc, self._ec)
-        sub = y.getSubVector(self.vertex)            # y += P e
-        sub.axpy(1.0, self._ec)
-        y.restoreSubVector(self.vertex, sub)
+        self.to_vertex.scatter(self._ec, y, **self._prolong)   # y += P e
         a.mult(y, r)
         r.aypx(-1.0, b)
         self.smoother.solve(r, t)                    # post-smoothing
@@ -65,7 +64,7 @@ class TwoLevel:
 
     def destroy(self, pc=None) -> None:
         """Free its PETSc objects (by `petsc.PETScSolver.destroy`, or by PETSc with its PC: ``pc``)."""
-        for obj in (self._r, self._t, self._rc, self._ec, self.smoother, self.coarse):
+        for obj in (self._r, self._t, self._rc, self._ec, self.to_vertex, self.smoother, self.coarse):
             obj.destroy()
 
 
@@ -194,7 +193,7 @@ def velocity_block(solver, spaces: Spaces) -> TwoLevel | Condensed:
         context = Condensed(PETSc, inverse, a_vb, a_bv, vertex, bubble, coarse, field)
         solver.keep += [vertex, bubble, field, a_vv, nullspace, *vectors]
     else:
-        context = TwoLevel(a, vertex, smoother, coarse)
+        context = TwoLevel(PETSc, a, vertex, smoother, coarse)
         solver.keep += [a, vertex, a_vv, nullspace, *vectors]
     pc = solver.ksp.getPC().getFieldSplitSubKSP()[0].getPC()
     pc.setType("python")
