@@ -62,6 +62,7 @@ class Surfaces:
         spaces = scheme.spaces
         self.mesh, self.phases, self.dim = spaces.mesh, spaces.phases, spaces.mesh.dim
         self.chi = {name: indicator(self.mesh, name) for name in self.names}
+        self.band = {name: self._band(name) for name in self.names}
         self.medium = {name: FLUID if name == INTERFACE or adjacent_regions(self.mesh, name) & set(self.phases.fluid)
                        else SOLID for name in self.names}
         self.areas = {name: self._integral(ngs.CF(1.0), name) for name in self.names}
@@ -73,9 +74,15 @@ class Surfaces:
         axes = "xyz"[: self.dim]
         return [f"{name}.{q}" for name in self.names for q in (*QUANTITIES, *(f"force_{a}" for a in axes))]
 
+    def _band(self, name: str) -> ngs.BitArray:
+        """The cells with a facet on boundary ``name``: the only ones χ reaches, so that the functionals are assembled
+        on them alone (the 3D artery at 155 948 unknowns: 15 functionals over every cell took 9.3 s)."""
+        cells = ngs.Integrate(self.chi[name] * ngs.dx(element_boundary=True), self.mesh, element_wise=True)
+        return ngs.BitArray((cells.NumPy() > 0).tolist())
+
     def _measure(self, name: str):
         medium = self.medium[name]
-        return ngs.dx(self.phases.pattern(medium), element_boundary=True,
+        return ngs.dx(self.phases.pattern(medium), element_boundary=True, definedonelements=self.band[name],
                       bonus_intorder=self.scheme.spaces.bonus_intorder if medium == FLUID else 0)
 
     def _integral(self, cf, name: str) -> float:
