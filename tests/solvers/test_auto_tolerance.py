@@ -8,7 +8,7 @@ import pytest
 from fsivsp.experiments.paper import paper_case
 from fsivsp.experiments.study import discretise, study
 from fsivsp.geometry import refined
-from fsivsp.solvers import START_REDUCTION, TOLERANCE, petsc_available
+from fsivsp.solvers import START_REDUCTION, TOLERANCE, auto_target, petsc_available
 from fsivsp.timestepping.schemes import Theta
 
 pytestmark = pytest.mark.skipif(petsc_available() is not None, reason=str(petsc_available()))
@@ -42,8 +42,8 @@ def test_crank_nicolson_takes_the_tighter_reduction():
 
 def test_auto_stopping_rule():
     """From zero a solve reaches 1e-12 ‖b‖ (a Woodbury column, a correction: no start to measure against); from the
-    extrapolated start x₀ (``predicted``) it stops once ‖b − Ax‖ ≤ 1e-4 ‖b − Ax₀‖, from another start at 1e-8 of it,
-    both before 1e-12 ‖b‖ (checked with NGSolve's product)."""
+    extrapolated start x₀ it stops once ‖b − Ax‖ ≤ 1e-4 ‖b − Ax₀‖, from another start at 1e-8 of it (the scheme's
+    ρ through `auto_target`), both before 1e-12 ‖b‖ (checked with NGSolve's product)."""
     case = paper_case(1e-2).with_solver(method="petsc")
     scheme, _ = discretise(case, refined(case.coarse_mesh(), 1, case.discretisation.project_refinement))
     solver, matrix = scheme.solver, scheme.step_matrix
@@ -63,9 +63,9 @@ def test_auto_stopping_rule():
     exact.data = x
     start.FV().NumPy()[:] = exact.FV().NumPy() * (1 + 1e-3 * np.cos(np.arange(len(free))))
     initial = residual(start)
-    for predicted, reduction in ((True, START_REDUCTION), (False, START_REDUCTION**2)):
-        solver.solve_step(b, zero, x, start, predicted=predicted)
-        assert 1e2 * TOLERANCE * norm < residual(x) <= 1.5 * reduction * initial, (predicted, residual(x), initial)
+    for extrapolated, reduction in ((True, START_REDUCTION), (False, START_REDUCTION**2)):
+        solver.solve_step(b, zero, x, start, auto_target(scheme.reduction, initial, extrapolated))
+        assert 1e2 * TOLERANCE * norm < residual(x) <= 1.5 * reduction * initial, (extrapolated, residual(x), initial)
 
 
 def test_ssor_where_the_mass_dominates(same_errors):

@@ -28,6 +28,7 @@ from .base import (
     NotConverged,
     SolverError,
     StepSolver,
+    auto_target,
 )
 from .direct import METHODS, DirectSolver, available_methods, default_method, factorise
 from .petsc_init import available as petsc_available
@@ -37,8 +38,8 @@ from .spec import SolverSpec, read_petsc_options, solver_names
 __all__ = [
     "AUTO", "AUTO_ITERATIVE_DOFS", "BACKENDS", "DISTRIBUTED_SOLVERS", "METHODS", "MAX_ITERATIONS", "START_REDUCTION",
     "TOLERANCE", "UNDAMPED_REDUCTION", "DirectSolver", "NotConverged", "SolverError", "SolverSpec", "StepSolver",
-    "auto_solver", "available_methods", "compact", "default_method", "factorise", "free_mask", "is_symmetric",
-    "petsc_available", "read_petsc_options", "solver_kind", "solver_names", "step_solver", "to_ngsolve",
+    "auto_solver", "auto_target", "available_methods", "compact", "default_method", "factorise", "free_mask",
+    "is_symmetric", "petsc_available", "read_petsc_options", "solver_kind", "solver_names", "step_solver", "to_ngsolve",
     "to_scipy_csr", "unsupported",
 ]
 
@@ -88,7 +89,7 @@ def petsc_backend(matrix: ngs.BaseMatrix, spaces, materials, dt: float, spec: So
     from .petsc import MUMPS, PETScSolver
 
     options = {**MUMPS, **spec.petsc} if spec.method == "direct" else dict(spec.petsc)
-    return PETScSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations, options, spec.reduction)
+    return PETScSolver(matrix, spaces, materials, dt, spec.tolerance, spec.max_iterations, options)
 
 
 #: The backends by `solver_kind`: factories ``(matrix, spaces, materials, dt, spec) -> StepSolver``.

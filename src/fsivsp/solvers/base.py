@@ -38,20 +38,29 @@ class NotConverged(SolverError):
     """An iterative solve that reached its iteration limit above its tolerance."""
 
 
+def auto_target(reduction: float | None, reference: float | None, extrapolated: bool) -> float | None:
+    """The residual ‖b − Ax‖ at which the auto tolerance stops a solve from a start, if it comes before ``TOLERANCE``
+    ‖b‖: ρ‖b − Ax̃‖ (``reduction`` ρ, ``reference`` ‖b − Ax̃‖, x̃ the reference start of `timestepping.warmstart`)
+    where x̃ is the extrapolation 2xⁿ − xⁿ⁻¹ (``extrapolated``), ρ² ‖b − Ax̃‖ where it is xⁿ (`START_REDUCTION`).
+    None (the tolerance alone) for a fixed tolerance (no ``reduction``) or a solve without a start (no
+    ``reference``)."""
+    if reduction is None or reference is None:
+        return None
+    return (reduction if extrapolated else reduction**2) * reference
+
+
 class StepSolver(Protocol):
     """What the scheme needs of a solver: ``out = boundary + A_ff⁻¹ rhs`` (``guess``: where an iterative method
-    starts; ``reference``: ‖b − Ax̃‖ of the reference start x̃ that the auto tolerance reduces, None: the guess's own;
-    ``predicted``: whether x̃ is the extrapolation 2xⁿ − xⁿ⁻¹, not xⁿ; `timestepping.warmstart`) and
-    a record for reports; ``overlap``: whether a solve may run concurrently with other work of the scheme (not when
-    it communicates between MPI ranks)."""
+    starts; ``target``: the residual norm at which an iterative method may stop before its tolerance, `auto_target`;
+    a direct solver ignores both) and a record for reports; ``overlap``: whether a solve may run concurrently with
+    other work of the scheme (not when it communicates between MPI ranks)."""
 
     method: str
     factor_seconds: float
     overlap: bool
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False,
-                   reference: float | None = None) -> None: ...
+                   guess: ngs.BaseVector | None = None, target: float | None = None) -> None: ...
 
     def progress(self) -> str: ...
 

@@ -334,9 +334,9 @@ class DirectSolver:
         """``out[free] = A_ff^{-1} rhs[free]``, ``out[non-free] = 0``."""
         out.data = self.inverse * rhs
 
-    def solve_step(self, rhs, boundary, out, guess=None, predicted=False, reference=None) -> None:
+    def solve_step(self, rhs, boundary, out, guess=None, target=None) -> None:
         """``out = boundary + A_ff^{-1} rhs``: the scheme's step (`fsivsp.solvers.StepSolver`; a direct
-        solver needs no ``guess``)."""
+        solver needs no ``guess`` and no ``target``)."""
         out.data = boundary
         self.inverse.MultAdd(1.0, rhs, out)
 

@@ -29,7 +29,7 @@ from ..fem.spaces import Spaces
 from ..model.materials import Materials
 from ..runtime import parallel
 from ..runtime.threads import idle
-from .base import AUTO, START_REDUCTION, TOLERANCE, NotConverged
+from .base import AUTO, TOLERANCE, NotConverged
 from .petsc_init import entered_options, option_names, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
@@ -240,13 +240,14 @@ class PETScSolver:
     method = "petsc"
 
     def __init__(self, matrix: ngs.BaseMatrix, spaces: Spaces, materials: Materials, dt: float, tol: float | str,
-                 maxiter: int, options: Mapping[str, object] | None = None, reduction: float = START_REDUCTION):
+                 maxiter: int, options: Mapping[str, object] | None = None):
         if tol != AUTO and not 0 < tol < 1:
             raise ValueError(f"tolerance: expected auto or a number in (0, 1), got {tol!r}")
         PETSc = petsc()
         start = time.perf_counter()
         self.PETSc, self.maxiter = PETSc, maxiter
-        self.tol, self.reduction = (TOLERANCE, reduction) if tol == AUTO else (tol, None)
+        self.auto = tol == AUTO   # then a solve from a start stops at its target too (`solve_step`)
+        self.tol = TOLERANCE if self.auto else tol
         self.distributed = isinstance(matrix, ngs.la.ParallelMatrix)
         self.overlap = not self.distributed  # its products and reductions communicate: one MPI call at a time
         self.comm = PETSc.COMM_WORLD if self.distributed else PETSc.COMM_SELF
@@ -372,25 +373,21 @@ class PETScSolver:
         return self.PETSc.NullSpace().create(vectors=vectors, comm=self.comm)
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False,
-                   reference: float | None = None) -> None:
-        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself; ``reference`` and ``predicted``: the
-        reference start's residual and whether it is the extrapolation, `_stopping`)."""
+                   guess: ngs.BaseVector | None = None, target: float | None = None) -> None:
+        """out = boundary + A_ff⁻¹ rhs (``guess`` may be ``out`` itself; ``target``: `_stopping`)."""
         self._load_vector(rhs, self._b)
         if guess is None:
             self._x.set(0.0)
         else:
             self._load_vector(guess, self._x)
         norm = self._b.norm()
-        if guess is not None and reference is None and self.reduction is not None:   # the start's own residual
-            reference = self._start_residual()
-        self._stopping(norm, None if guess is None else predicted, reference)
+        self._stopping(norm, target)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
         self.iterations.append(self.ksp.getIterationNumber())
         self.residual = self.ksp.getResidualNorm() / norm if norm > 0 else 0.0
         if self.ksp.getConvergedReason() < 0:
-            rule = f"{self.tol:g}" if self.reduction is None else f"auto ({self.tol:g}, {self.reduction:g})"
+            rule = f"{self.tol:g}" if target is None else f"auto ({self.tol:g} or the residual {target:.2e})"
             raise NotConverged(f"petsc: {self.ksp.getType()} did not reach the tolerance {rule} in "
                                f"{self.iterations[-1]} iterations (relative residual {self.residual:.2e}, "
                                f"reason {self.ksp.getConvergedReason()})")
@@ -400,27 +397,14 @@ class PETScSolver:
             out.Cumulate()
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
-    def _start_residual(self) -> float:
-        """‖b − Ax₀‖ of the loaded right-hand side and start."""
-        residual = self._b.duplicate()
-        self.A.mult(self._x, residual)
-        residual.aypx(-1.0, self._b)
-        norm = residual.norm()
-        residual.destroy()
-        return norm
-
-    def _stopping(self, norm: float, predicted: bool | None, reference: float | None) -> None:
-        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a start also
-        ‖r‖ ≤ ρ ‖b − Ax̃‖, whichever comes first, x̃ the reference start (``reference`` = ‖b − Ax̃‖): ρ = ``reduction``
-        from the extrapolation (``predicted``), its square from another (`base.START_REDUCTION`; ``predicted``
-        None: no start, ‖r‖ ≤ tol ‖b‖ alone). PETSc stops at ‖r‖ ≤ max(rtol ‖b‖, atol)."""
-        if self.reduction is None:
-            return
-        if predicted is None:
-            self.ksp.setTolerances(rtol=self.tol, atol=0.0, max_it=self.maxiter)
+    def _stopping(self, norm: float, target: float | None) -> None:
+        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a ``target``
+        (`base.auto_target`, the scheme's) also ‖r‖ ≤ target, whichever comes first. PETSc stops at ‖r‖ ≤ max(rtol ‖b‖,
+        atol)."""
+        if self.auto and target is not None:
+            self.ksp.setTolerances(rtol=0.0, atol=max(target, self.tol * norm), max_it=self.maxiter)
         else:
-            rho = self.reduction if predicted else self.reduction**2
-            self.ksp.setTolerances(rtol=0.0, atol=max(rho * reference, self.tol * norm), max_it=self.maxiter)
+            self.ksp.setTolerances(rtol=self.tol, atol=0.0, max_it=self.maxiter)
 
     def destroy(self) -> None:
         """Free the PETSc objects (at exit: `petsc_init.register`)."""
@@ -438,7 +422,7 @@ class PETScSolver:
 
     def statistics(self) -> dict:
         counts = self.iterations or [0]
-        return {"method": self.method, "tolerance": AUTO if self.reduction is not None else self.tol,
+        return {"method": self.method, "tolerance": AUTO if self.auto else self.tol,
                 "residual": self.residual,
                 "setup_seconds": self.factor_seconds, "matvec_seconds": self.matvec_seconds,
                 "ranks": self.comm.getSize(),

@@ -10,7 +10,9 @@ Dirichlet values, r the right-hand side lifted by A g),
 
 and q = Cᵀx (an outlet's new flow). Dirichlet values on the vectors' dofs are included: Cᵀx⁰ sees them. A solve
 costs the base solve, k inner products and k vector updates; the time loop (`timestepping.marching`) and the start
-step of BDF2 call it as they call the base solver.
+step of BDF2 call it as they call the base solver. A start x₀ of the whole system (`timestepping.warmstart`, whose
+products include C Γ Cᵀ) becomes the base solve's x₀ + Y Γ Cᵀx₀ (`base_start`), whose residual under A is x₀'s under
+A + C Γ Cᵀ: the auto tolerance's target holds for the base solve, and the solution's residual is the base solve's.
 """
 from __future__ import annotations
 
@@ -33,27 +35,44 @@ class WoodburySolver:
                  free: ngs.BitArray):
         self.base, self.vectors, self.weights = base, list(vectors), np.asarray(weights)
         self._scalar = complex if np.iscomplexobj(self.weights) else float
-        project = ngs.Projector(free, True)
+        self._project = project = ngs.Projector(free, True)
         zero = vectors[0].CreateVector()
         zero[:] = 0.0
-        self.solutions = []
+        self.solutions, self.free_vectors = [], []
         for c in self.vectors:
             free_part, y = c.CreateVector(), c.CreateVector()
             free_part.data = project * c
             base.solve_step(free_part, zero, y, None)
             self.solutions.append(y)
+            self.free_vectors.append(free_part)
+        self._start = zero.CreateVector()
         coupling = np.array([[_dot(c, y) for y in self.solutions] for c in self.vectors])
         self._inverse = np.linalg.inv(np.eye(len(self.vectors)) + coupling * self.weights[None, :])
+
+    def base_start(self, guess: ngs.BaseVector, boundary: ngs.BaseVector) -> ngs.BaseVector:
+        """The base solve's start for a start x₀ = g + P ``guess`` of the whole system (g = ``boundary``, P the free
+        dofs): x⁰ = x₀ + Y Γ Cᵀx₀, the base answer if x₀ were the answer. Its residual under A, b − A_ff x⁰, is x₀'s
+        under A + C Γ Cᵀ (A_ff Y = C_f). From x₀ itself the base solve would start a whole Y Γ Cᵀx off its answer."""
+        start = self._start
+        start.data = boundary + self._project * guess
+        for y, gamma, q in zip(self.solutions, self.weights, self.flows(start)):
+            start.data += self._scalar(gamma * q) * y
+        return start
+
+    def add_terms(self, x: ngs.BaseVector, out: ngs.BaseVector) -> None:
+        """out += C_f Γ C_fᵀ x: the rank-one terms on the free dofs (the whole system's product, `warmstart`)."""
+        for c, gamma in zip(self.free_vectors, self.weights):
+            out.data += self._scalar(gamma * _dot(c, x)) * c
 
     def flows(self, x: ngs.BaseVector) -> np.ndarray:
         """Cᵀx."""
         return np.array([_dot(c, x) for c in self.vectors])
 
     def solve_step(self, rhs: ngs.BaseVector, boundary: ngs.BaseVector, out: ngs.BaseVector,
-                   guess: ngs.BaseVector | None = None, predicted: bool = False,
-                   reference: float | None = None) -> None:
-        """out = the solution of (A + C Γ Cᵀ) x = rhs on the free dofs with x = boundary on the others."""
-        self.base.solve_step(rhs, boundary, out, guess, predicted, reference)
+                   guess: ngs.BaseVector | None = None, target: float | None = None) -> None:
+        """out = the solution of (A + C Γ Cᵀ) x = rhs on the free dofs with x = boundary on the others; the base solve
+        starts from `base_start` of ``guess`` (its residual is ``guess``'s, so ``target`` applies unchanged)."""
+        self.base.solve_step(rhs, boundary, out, None if guess is None else self.base_start(guess, boundary), target)
         for y, gamma, q in zip(self.solutions, self.weights, self._inverse @ self.flows(out)):
             out.data -= self._scalar(gamma * q) * y
 

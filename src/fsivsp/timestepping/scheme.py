@@ -35,7 +35,7 @@ from ..model.data import Data
 from ..model.materials import Materials
 from ..runtime import threads
 from ..runtime.logs import stage
-from ..solvers import UNDAMPED_REDUCTION, SolverError, SolverSpec, compact, solver_kind, step_solver
+from ..solvers import AUTO, UNDAMPED_REDUCTION, SolverError, SolverSpec, auto_target, compact, solver_kind, step_solver
 from ..solvers.woodbury import WoodburySolver
 from .initial import initial_multiplier, initial_solid_pressure, initial_state, project_offset
 from .marching import march
@@ -82,6 +82,8 @@ class Scheme:
         if not time_scheme.damps:   # Crank–Nicolson: the auto tolerance's tighter reduction
             solver = dataclasses.replace(solver, reduction=UNDAMPED_REDUCTION)
         threads.fit(unknowns, dim, solver_kind(solver, unknowns, dim))
+        #: the auto tolerance's ρ (`solvers.base.auto_target`), None for a fixed tolerance
+        self.reduction = solver.reduction if solver.tolerance == AUTO else None
         self.spaces, self.materials, self.data, self.dt = spaces, materials, data, dt
         self.time_scheme, self.tau = time_scheme, time_scheme.tau(dt)
         self.pressure_unit = self.tau   # ϑ: a solid pressure's unknowns are ϑπ and ϑP (`forms`)
@@ -138,7 +140,7 @@ class Scheme:
         self._extrapolated = None               # 2Uⁿ − Uⁿ⁻¹ for BDF2's energy, made on first use
         #: the last solutions, where an iterative solve starts (`warmstart`)
         self.warm = MinimalResidualStart(self.state.vec, self._matrix, X.FreeDofs(), takes_start(self.solver),
-                                         time_scheme.damps)
+                                         time_scheme.damps, self.solver.add_terms if self.outlets else None)
         with stage("initial data"):
             self.initialise()
 
@@ -182,8 +184,8 @@ class Scheme:
         """Step n + 1's solve (1) into ``out`` from the start of `warmstart`; its solution is not yet recorded for
         the next start (`MinimalResidualStart.record`)."""
         start, reference = self.warm.start(self.time_scheme, n, rhs)
-        self.solver.solve_step(rhs, boundary, out, start, predicted=self.warm.predicts(self.time_scheme, n),
-                               reference=reference)
+        target = auto_target(self.reduction, reference, self.warm.predicts(self.time_scheme, n))
+        self.solver.solve_step(rhs, boundary, out, start, target)
 
     def march(self, steps: int, observe: Callable[[Scheme], None] | None = None) -> None:
         """``steps`` steps, calling ``observe(self)`` after each one with the scheme at that step; from
@@ -325,7 +327,7 @@ class Scheme:
         on the discrete kernel, 1 elsewhere), so ω = 2/(1 + r²) contracts by (1 − r²)/(1 + r²) (0.28 for BDF2).
         The supports' and outlets' terms are positive semi-definite with ratios in [r², r] (γ'/γ of an outlet), so
         the bound holds with them. Each A(τ)⁻¹ is inexact at the auto tolerance: it reduces its right-hand side by ρ
-        (``predicted``), which moves the contraction by about ρ, and the iteration's fixed point is A(τ')⁻¹b
+        (its start is zero), which moves the contraction by about ρ, and the iteration's fixed point is A(τ')⁻¹b
         whatever the inner accuracy (a fixed tolerance solves to it; the artery's start at 155 948 unknowns:
         see BENCHMARKS.md, "BDF2's start with inexact inner solves")."""
         spaces, mat, dt, supports = self.spaces, self.coefficients, self.dt, self.data.supports
@@ -349,7 +351,8 @@ class Scheme:
                 residual.data -= (gamma * flow) * c
             residual.data = free * residual
             residual.FV().NumPy()[pressure] *= scale
-            self.solver.solve_step(residual, zero, correction, zero, predicted=True)   # auto: ρ of the residual
+            target = None if self.reduction is None else self.reduction * ngs.Norm(residual)
+            self.solver.solve_step(residual, zero, correction, zero, target)
             correction.FV().NumPy()[pressure] *= scale
             out.data += omega * correction
             if omega * ngs.Norm(correction) <= START_TOLERANCE * ngs.Norm(out):
