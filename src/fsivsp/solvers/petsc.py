@@ -381,6 +381,7 @@ class PETScSolver:
         else:
             self._load_vector(guess, self._x)
         norm = self._b.norm()
+        target = target if self.auto else None   # a fixed tolerance is the tolerance alone
         self._stopping(norm, target)
         with idle():   # PETSc solves on this thread alone
             self.ksp.solve(self._b, self._x)
@@ -398,10 +399,10 @@ class PETScSolver:
         out.FV().NumPy()[self.layout.local] += self._local.getArray()
 
     def _stopping(self, norm: float, target: float | None) -> None:
-        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with the auto tolerance and a ``target``
-        (`base.auto_target`, the scheme's) also ‖r‖ ≤ target, whichever comes first. PETSc stops at ‖r‖ ≤ max(rtol ‖b‖,
+        """The solve's stopping rule: ‖r‖ ≤ tol ‖b‖ (``norm`` = ‖b‖); with a ``target`` (the auto tolerance's,
+        `base.auto_target`, the scheme's) also ‖r‖ ≤ target, whichever comes first. PETSc stops at ‖r‖ ≤ max(rtol ‖b‖,
         atol)."""
-        if self.auto and target is not None:
+        if target is not None:
             self.ksp.setTolerances(rtol=0.0, atol=max(target, self.tol * norm), max_it=self.maxiter)
         else:
             self.ksp.setTolerances(rtol=self.tol, atol=0.0, max_it=self.maxiter)
