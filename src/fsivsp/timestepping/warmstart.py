@@ -19,7 +19,8 @@ posed in the basis xⁿ, xⁿ − xⁿ⁻¹, xⁿ⁻¹ − xⁿ⁻², … (its G
 With lumped outlets the system is A + C Γ Cᵀ (`solvers.woodbury`): the products include the outlets' terms, so that
 the start and its residual are the whole system's (against A alone the reference residual was the outlets' term, not
 the step's time error: a channel with an RCR outlet, 40 BDF2 steps, moved by 1.1e-4 of the factorisation's state
-against 3.0e-6 now, in 730 iterations against 541).
+against 3.0e-6 now, in 730 iterations against 541). The terms act on the free dofs, C_f Γ C_fᵀ x: Dirichlet values
+g on an outlet's dofs (0 in every shipped case) would move the reference residual by the constant C_f Γ Cᵀg.
 
 Direct solvers ignore the start; for them nothing is formed or multiplied (`takes_start`), and the solutions are
 kept all the same, so that a checkpoint holds the same vectors whichever solver wrote it.
