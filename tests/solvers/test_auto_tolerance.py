@@ -81,11 +81,20 @@ def test_ssor_where_the_mass_dominates(same_errors):
     assert study(coarse.with_solver(method="petsc"), range(0, 1))[0]["preconditioner"]["velocity"] == "boomeramg"
 
 
-def test_ssor_as_good_as_boomeramg_where_it_is_chosen(example):
-    """The 3D fluid ball at Δt = 1e-4, level 1 (stiffness ratio 3.0), tolerance 1e-12: SSOR takes at most the
-    iterations of BoomerAMG (forced by ``velocity_preconditioner``) plus 10 %."""
-    case = dataclasses.replace(example("fluid_in_solid_3d"), dt=1e-4, T=3e-4).with_solver(tolerance=TOLERANCE)
-    ssor, amg = (study(case.with_solver(method="petsc", petsc=options), range(1, 2))[0]
-                 for options in ({}, {"velocity_preconditioner": "boomeramg"}))
-    assert (ssor["preconditioner"]["velocity"], amg["preconditioner"]["velocity"]) == ("ssor", "boomeramg")
-    assert ssor["iterations"]["mean"] <= 1.1 * amg["iterations"]["mean"], (ssor["iterations"], amg["iterations"])
+@pytest.mark.parametrize("name, level, dt, default, forced", [
+    ("paper", 1, 1e-5, "ssor", "boomeramg"),
+    ("fluid_in_solid_3d", 1, 1e-4, "condensed", "ssor"),
+])
+def test_the_default_where_the_mass_dominates(example, name, level, dt, default, forced):
+    """Tolerance 1e-12, 3 steps, where the mass dominates: the paper's level 1 at Δt = 1e-5 takes SSOR, in at most the
+    iterations of BoomerAMG (forced by ``velocity_preconditioner``) plus 10 % (measured 5.0 against 7.3, q = 4.2); the
+    3D fluid ball's level 1 at Δt = 1e-4 (q = 3.0) keeps MINI's condensed bubbles, in at most SSOR's iterations plus
+    10 % (measured 12.7 against 12.3; on the 3D tube at q = 4.1 it takes 0.65× SSOR's time a step,
+    `solvers.petsc_mass`)."""
+    case = paper_case(dt) if name == "paper" else example(name)
+    case = dataclasses.replace(case, dt=dt, T=3 * dt).with_solver(tolerance=TOLERANCE)
+    chosen, other = (study(case.with_solver(method="petsc", petsc=options), range(level, level + 1))[0]
+                     for options in ({}, {"velocity_preconditioner": forced}))
+    assert (chosen["preconditioner"]["velocity"], other["preconditioner"]["velocity"]) == (default, forced)
+    assert chosen["iterations"]["mean"] <= 1.1 * other["iterations"]["mean"], (chosen["iterations"],
+                                                                                other["iterations"])

@@ -9,7 +9,7 @@ from support.incompressible import counts, incompressible
 
 from fsivsp.config.case import CaseError, load_study_case
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import dirichlet_boundaries, study
+from fsivsp.experiments.study import dirichlet_boundaries, discretise, study
 from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
 from fsivsp.solvers import petsc_available
@@ -49,16 +49,32 @@ def test_condensed_with_schur_factorised_is_exact(example):
     factorised (LU) the 3D fluid ball's level 1 takes, step by step, the iterations of the velocity block factorised
     with the same cycles on the commutator's F (a wrong A_bb⁻¹ or S would not), and the default BoomerAMG cycle on S
     at most 3 more a step (measured 1.3)."""
-    from fsivsp.solvers.petsc import DEFAULTS_CONDENSED
+    from fsivsp.solvers.petsc import STIFF_F_CYCLES
     case = dataclasses.replace(example("fluid_in_solid_3d"), T=0.06)
     runs = [study(case.with_solver(method="petsc", tolerance=1e-12, petsc=options), range(1, 2))[0]
             for options in ({"velocity_pmg_coarse_pc_type": "lu"},
                             {"velocity_preconditioner": "boomeramg", "fieldsplit_velocity_pc_type": "lu",
-                             F_CYCLES: DEFAULTS_CONDENSED[F_CYCLES]}, {})]
+                             F_CYCLES: STIFF_F_CYCLES[F_CYCLES]}, {})]
     assert [r["preconditioner"]["velocity"] for r in runs] == ["condensed", "boomeramg", "condensed"]
     schur, block, default = (r["iterations"] for r in runs)
     assert schur == block, (schur, block)
     assert default["mean"] <= block["mean"] + 3, (default, block)
+
+
+@pytest.mark.parametrize(("dt", "cycles"), [(1e-4, "2"), (2e-2, "4")])
+def test_condensed_cycles_on_f_follow_the_stiffness_ratio(example, dt, cycles):
+    """The condensed block's commutator takes 2 BoomerAMG cycles on F where the mass dominates (the 3D fluid ball's
+    level 1 at Δt = 1e-4: q = 3.0 ≤ 30), `STIFF_F_CYCLES` (4) where the stiffness does (Δt = 0.02); a user's count
+    is kept either way."""
+    case = dataclasses.replace(example("fluid_in_solid_3d"), dt=dt)
+    mesh = refined(case.coarse_mesh(), 1, case.discretisation.project_refinement)
+    for options, expected in (({}, cycles), ({F_CYCLES: "3"}, "3")):
+        scheme, _ = discretise(case.with_solver(method="petsc", petsc=options), mesh)
+        solver = scheme.solver
+        assert solver.options["velocity_preconditioner"] == "condensed"
+        assert (solver.stiffness_ratio <= 30) == (cycles == "2"), solver.stiffness_ratio
+        assert solver.options[F_CYCLES] == expected, (options, solver.options[F_CYCLES])
+        solver.destroy()
 
 
 def test_condensed_needs_mini(example):

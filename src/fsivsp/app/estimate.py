@@ -62,7 +62,7 @@ DISTRIBUTED_BYTES_PER_UNKNOWN = 7_000
 #:                                      small separators: b scales with (N / `aspect`)^γ)
 #: 3D, PETSc                7.7 kB      the fluid ball with MINI's condensed bubbles (issue 33, BENCHMARKS.md "MINI's
 #:                                      bubbles condensed"): 7.2 kB at 65 130 and 535 830, 7.7 kB at 1 640 486
-#:                                      (examples/large_ball_3d.toml); the tube with SSOR 5.5 kB at 249 599. Not
+#:                                      (examples/large_ball_3d.toml); the tube 6.3 kB at 249 599 (SSOR: 5.7). Not
 #:                                      modelled: BoomerAMG with hypre's elasticity options on a whole MINI block
 #:                                      (a solid pressure), 13.8 kB on the ball's 535 830 before the condensation
 #: 2D, PETSc               as 3D       not measured (an upper bound: 2D rows are shorter)
@@ -88,7 +88,7 @@ VTK_BYTES_PER_POINT = 720
 #: 2D direct from the paper's levels 2 and 4 ("One time step", `march`), 3D direct from the fluid ball's rows of
 #: "Scale" (levels 2–3); PETSc from the 3D tube at the default tolerance 1e-12 ("The 3D elastic tube": 3.58 s at
 #: 430 568 unknowns, 20.7 s at 1 427 336, 14.5 µs per unknown); the 2D PETSc law is the 3D one (not measured in 2D).
-#: Kept as the upper bound since issue 33: at the auto tolerance with SSOR the tube takes 0.79 s at 282 415 unknowns
+#: Kept as the upper bound since issue 33: at the auto tolerance the tube takes 0.42 s at 282 415 unknowns (SSOR 0.72)
 #: (the law: 1.94 s), a step where the stiffness dominates its mass costs what the law says.
 SECONDS_PER_STEP = {
     (2, "direct"): (72_339, 1.75e-2, 1.07, math.inf),

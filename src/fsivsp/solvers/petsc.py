@@ -33,7 +33,7 @@ from .base import AUTO, TOLERANCE, NotConverged
 from .petsc_init import entered_options, option_names, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
-from .petsc_mass import DEFAULTS_SSOR, MASS_DOMINATED, ratio_for_ssor
+from .petsc_mass import DEFAULTS_SSOR, MASS_DOMINATED, ratio_for, sets_velocity
 from .petsc_pmg import COARSE, SMOOTH, velocity_block
 from .petsc_schur import pressure_block
 from .sparse import to_scipy_csr
@@ -166,14 +166,11 @@ PMG_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"
 #: default is a symmetric sweep each way, twice the work): on level 4 the cycle costs 5.3 step-matrix products
 #: (PETSc's, one thread) against 10.3; 10 steps took 27, 24, 10, 9, 9, 7, 7, 6, 6, 6 iterations against 23, 21, 9,
 #: 7, 7, 6, 6, 5, 6, 6, at 0.71× the time (forward down and backward up: 0.79×; V(1,0): 38, 35, 16, …). The cycle is
-#: not symmetric; the outer FGMRES does not need it to be. The commutator's Laplacian F takes 4 BoomerAMG cycles (2
-#: with the other velocity preconditioners): here S's cycle, not F's, is most of an iteration, and the robustness
-#: table's 3D rows at Δt = 0.1, 10⁻² take 1.0–6.6 fewer iterations on level 3 at 0.90–0.97× the time (6 cycles: at most
-#: 1.3 fewer); the ball's level 4, 10 steps: 22, 20, 9, 8, 8, 7, 7, 6, 6, 5 at 0.89× the time.
+#: not symmetric; the outer FGMRES does not need it to be. The commutator's Laplacian F takes `STIFF_F_CYCLES` where
+#: the stiffness dominates the block (`petsc_mass.MASS_DOMINATED`).
 DEFAULTS_CONDENSED: dict[str, str] = {
     "velocity_preconditioner": "condensed",
     "fieldsplit_velocity_pc_type": "none",   # replaced by the condensed block after the fieldsplit's set-up
-    "schur_laplacian_pc_hypre_boomeramg_max_iter": "4",
     f"{COARSE}pc_type": "hypre",
     **{f"{COARSE}pc_hypre_boomeramg_{key}": value
        for key, value in (("strong_threshold", "0.5"), ("coarsen_type", "HMIS"), ("interp_type", "ext+i"),
@@ -183,10 +180,21 @@ DEFAULTS_CONDENSED: dict[str, str] = {
 }
 
 
+#: With the condensed block where the stiffness dominates (q > `petsc_mass.MASS_DOMINATED`): 4 BoomerAMG cycles on the
+#: commutator's Laplacian F (2 with the other velocity preconditioners, `DEFAULTS`). S's cycle, not F's, is then most
+#: of an iteration, and the robustness table's 3D rows at Δt = 0.1, 10⁻² take 1.0–6.6 fewer iterations on level 3 at
+#: 0.90–0.97× the time (6 cycles: at most 1.3 fewer); the ball's level 4, 10 steps: 22, 20, 9, 8, 8, 7, 7, 6, 6, 5
+#: at 0.89× the time. Where the mass dominates F's cycles are as dear as S's and the commutator needs fewer: the 3D
+#: tube at 249 599 unknowns (q = 4.1, 10 steps, the auto tolerance) takes 4.7 iterations a step with 2 cycles or 4,
+#: 0.375 against 0.464 s a step.
+STIFF_F_CYCLES: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter": "4"}
+
+
 def default_velocity(spaces: Spaces, nodal: bool = True) -> str:
-    """The velocity block's preconditioner by default (before `petsc_mass.ratio_for_ssor`'s SSOR): MINI's bubbles
-    condensed in 3D without a solid pressure (``nodal``: PETSc's velocity rows node by node, `petsc_layout`, so that a
-    cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a solid pressure the p-multigrid; else BoomerAMG.
+    """The velocity block's preconditioner by default (BoomerAMG may become SSOR, `petsc_mass.ratio_for_ssor`): MINI's
+    bubbles condensed in 3D without a solid pressure (``nodal``: PETSc's velocity rows node by node, `petsc_layout`,
+    so that a cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a solid pressure the p-multigrid; else
+    BoomerAMG.
     MINI in 2D or with a solid pressure and Taylor–Hood in 2D without one keep BoomerAMG (the paper's
     discretisation: its measured tables unchanged; with a solid pressure the condensed block is faster but grows more,
     `DEFAULTS_CONDENSED`)."""
@@ -198,16 +206,17 @@ def default_velocity(spaces: Spaces, nodal: bool = True) -> str:
     return "boomeramg"
 
 
-def velocity_options(spaces: Spaces, name: str) -> dict[str, str]:
+def velocity_options(spaces: Spaces, name: str, mass_dominated: bool = False) -> dict[str, str]:
     """The velocity block's options over `DEFAULTS` for the preconditioner ``name`` (`spec.VELOCITY_PRECONDITIONERS`):
-    BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`), `DEFAULTS_SSOR`, `DEFAULTS_CONDENSED` or the
+    BoomerAMG on V_h (in 3D `DEFAULTS_3D` and `ELASTICITY_3D`), `DEFAULTS_SSOR`, `DEFAULTS_CONDENSED` (with
+    `STIFF_F_CYCLES` unless the block's mass dominates, ``mass_dominated``: `petsc_mass.MASS_DOMINATED`) or the
     p-multigrid of `DEFAULTS_PMG`."""
     three = spaces.mesh.dim == 3
     options = {"velocity_preconditioner": name, **(DEFAULTS_3D if three else {}), **(ELASTICITY_3D if three else {})}
     if name == "ssor":
         options.update(DEFAULTS_SSOR)
     elif name == "condensed":
-        options.update(DEFAULTS_CONDENSED)
+        options.update({**DEFAULTS_CONDENSED, **({} if mass_dominated else STIFF_F_CYCLES)})
     elif name == "p-multigrid":
         coarse = {key.removeprefix("fieldsplit_velocity_"): value for key, value in DEFAULTS_3D.items()
                   if three and key.startswith("fieldsplit_velocity_")}
@@ -267,11 +276,12 @@ class PETScSolver:
         solid = spaces.solid_pressure is not None
         given = option_names(options or {}, PREFIX)
         velocity = str(given.get("velocity_preconditioner", default_velocity(spaces, L.blocksize == spaces.mesh.dim)))
-        self.stiffness_ratio = ratio_for_ssor(self, spaces, materials, velocity, given)
-        if self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED:
+        self.stiffness_ratio = ratio_for(self, spaces, materials, velocity)
+        mass = self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED
+        if mass and velocity == "boomeramg" and not sets_velocity(given):
             velocity = "ssor"
         defaults = {**DEFAULTS,
-                    **velocity_options(spaces, velocity),
+                    **velocity_options(spaces, velocity, mass),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
