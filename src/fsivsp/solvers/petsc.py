@@ -191,13 +191,12 @@ STIFF_F_CYCLES: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter":
 
 
 def default_velocity(spaces: Spaces, nodal: bool = True) -> str:
-    """The velocity block's preconditioner by default (BoomerAMG may become SSOR, `petsc_mass.ratio_for_ssor`): MINI's
-    bubbles condensed in 3D without a solid pressure (``nodal``: PETSc's velocity rows node by node, `petsc_layout`,
-    so that a cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a solid pressure the p-multigrid; else
-    BoomerAMG.
-    MINI in 2D or with a solid pressure and Taylor–Hood in 2D without one keep BoomerAMG (the paper's
-    discretisation: its measured tables unchanged; with a solid pressure the condensed block is faster but grows more,
-    `DEFAULTS_CONDENSED`)."""
+    """The velocity block's preconditioner by default (where it is BoomerAMG, SSOR if the mass dominates:
+    `petsc_mass.MASS_DOMINATED`): MINI's bubbles condensed in 3D without a solid pressure (``nodal``: PETSc's velocity
+    rows node by node, `petsc_layout`, so that a cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a
+    solid pressure the p-multigrid; else BoomerAMG. MINI in 2D or with a solid pressure and Taylor–Hood in 2D without
+    one keep BoomerAMG (the paper's discretisation: its measured tables unchanged; with a solid pressure the condensed
+    block is faster but grows more, `DEFAULTS_CONDENSED`)."""
     three = spaces.mesh.dim == 3
     if spaces.family == "mini" and three and nodal and spaces.solid_pressure is None:
         return "condensed"

@@ -14,10 +14,10 @@ several times more an application. q is algebraic: it holds for every time schem
 
 SSOR replaces BoomerAMG on the whole block only. MINI's condensed bubbles in 3D (`petsc_pmg.Condensed`) are kept at
 every q: they eliminate the bubbles exactly and cycle on P1's vertex block, and beat SSOR where the mass dominates
-too (the 3D tube of examples/pressure_wave.toml at 249 599 unknowns, q = 4.1, 10 steps, the auto tolerance, both
-with 4 cycles on the commutator's F: 4.7 iterations and 0.44 s a step against 6.8 and 0.68 s; at Δt/5, q ≈ 1.6:
-4.3 and 0.36 s against 6.0 and 0.52 s). Where the mass dominates their commutator takes 2 cycles on F, not 4 (the
-tube: the same 4.7 iterations at 0.81× the time a step).
+too (the 3D tube of examples/pressure_wave.toml at 249 599 unknowns, q = 4.1, 10 steps, the auto tolerance, with
+4 cycles on the commutator's F against SSOR's 2: 4.7 iterations and 0.44 s a step against 6.8 and 0.68 s; at Δt/5,
+q ≈ 1.6: 4.3 and 0.36 s against 6.0 and 0.52 s). Where the mass dominates their commutator takes 2 cycles on F, not
+4 (the tube: the same 4.7 iterations at 0.81× the time a step).
 """
 from __future__ import annotations
 
