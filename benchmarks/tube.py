@@ -18,6 +18,7 @@ package's choice), one run per name beside the others.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import re
 import subprocess
@@ -81,7 +82,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         for maxh in args.maxh:
             for solver in args.solvers:
-                for ranks, velocity in ((r, v) for r in args.ranks for v in args.velocity):
+                for ranks, velocity in itertools.product(args.ranks, args.velocity):
                     r = measure(maxh, solver, ranks, args.steps, Path(folder), velocity)
                     records.append(r)
                     if "failed" in r:

@@ -89,7 +89,7 @@ def test_the_default_where_the_mass_dominates(example, name, level, dt, default,
     """Tolerance 1e-12, 3 steps, where the mass dominates: the paper's level 1 at Δt = 1e-5 takes SSOR, in at most the
     iterations of BoomerAMG (forced by ``velocity_preconditioner``) plus 10 % (measured 5.0 against 7.3, q = 4.2); the
     3D fluid ball's level 1 at Δt = 1e-4 (q = 3.0) keeps MINI's condensed bubbles, in at most SSOR's iterations plus
-    10 % (measured 12.7 against 12.3; on the 3D tube at q = 4.1 it takes 0.65× SSOR's time a step,
+    10 % (measured 12.7 against 12.3; on the 3D tube at q = 4.1 it takes 0.62× SSOR's time a step,
     `solvers.petsc_mass`)."""
     case = paper_case(dt) if name == "paper" else example(name)
     case = dataclasses.replace(case, dt=dt, T=3 * dt).with_solver(tolerance=TOLERANCE)

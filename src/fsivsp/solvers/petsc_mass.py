@@ -54,7 +54,8 @@ DEFAULTS_SSOR: dict[str, str] = {
     "fieldsplit_velocity_pc_type": "sor",
 }
 
-#: The largest stiffness ratio q (the module's docstring) at which the velocity block takes `DEFAULTS_SSOR` by default.
+#: The largest stiffness ratio q (the module's docstring) at which the velocity block takes `DEFAULTS_SSOR` in place of
+#: BoomerAMG by default, and MINI's condensed block 2 cycles on the commutator's F (`petsc.STIFF_F_CYCLES` beyond).
 MASS_DOMINATED = 30.0
 
 
