@@ -10,7 +10,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
-from support.cases import MPIRUN, TUBE, mpirun, needs_mpi
+from support.cases import TUBE, mpirun, needs_mpi
 
 from fsivsp.app.cli import main
 from fsivsp.runtime import parallel
@@ -342,11 +342,8 @@ def test_sigterm_on_two_ranks_then_resume(tmp_path):
     case.write_text(TUBE.format(family="mini"))
     script = tmp_path / "signalled.py"
     script.write_text(SIGNALLED.format(step=3, signal="SIGTERM"))
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
     cut = tmp_path / "cut"
-    done = subprocess.run([MPIRUN, "-np", "2", sys.executable, str(script), "run", str(case), "--out", str(cut),
-                           "--quiet"], capture_output=True, text=True, env=env)
+    done = mpirun(str(script), "run", str(case), "--out", str(cut), "--quiet", program=())
     assert done.returncode == 143, done.stderr
     ours = [line for line in done.stderr.splitlines() if line.startswith("terminated")]
     checkpoint = cut / "checkpoints" / "checkpoint_000003.npz"

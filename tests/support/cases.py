@@ -104,10 +104,17 @@ TUBE = (CASE.replace("T = {T}", "T = 2.5e-4").replace('family = "mini"', 'family
         .replace("[checkpoint]\nevery = {every}\n", ""))
 
 
+#: Open MPI's settings for the tests' runs: as root if need be (CI), on any number of cores, and the ranks not bound
+#: to cores. Open MPI binds 2 ranks to the 2 cores by default; beside the suite's other xdist worker a bound rank then
+#: waits for its core at every collective (test_outlets_inflow_support_and_surfaces_equal_serial beside a busy loop:
+#: 50 s bound, 12 s unbound, 6 s on a quiet machine).
+MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
+           "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMPI_MCA_hwloc_base_binding_policy": "none"}
+
+
 def mpirun(*args: str, ranks: int = 2, program: tuple[str, ...] = ("-m", "fsivsp")) -> subprocess.CompletedProcess:
     """``mpirun -np ranks fsivsp args`` (``program``: Python's arguments before ``args``) with this checkout's
-    sources, as root if need be (CI), on any number of cores."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1")
+    sources and `MPI_ENV`."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), **MPI_ENV)
     return subprocess.run([MPIRUN, "-np", str(ranks), sys.executable, *program, *args],
                           capture_output=True, text=True, env=env)
