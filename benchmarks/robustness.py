@@ -6,16 +6,17 @@ Each row: the case's manufactured data on its coarse mesh refined ``level`` time
 scheme with ``--solver`` at ``--tolerance`` (default 1e-12 of the right-hand side, the tables' basis since issue 12;
 ``auto`` measures the auto tolerance), no error norms, with the case's ``solid_pressure`` (default "auto": a solid
 pressure where λ ≥ 10 μ). ``--tables`` runs only the named tables (comma-separated), ``--dt`` only these time steps
-of the "levels and time steps" table, ``--cases`` only the rows of these labels (comma-separated: "paper",
-"fluid_in_solid_3d", ...) and ``--levels`` only these levels (with ``--max-level-3d`` above 3: the 3D fluid ball's and
-fluid_over_solid_3d's level 4). Each record names the velocity block's preconditioner (BoomerAMG, SSOR where
-the mass dominates, the p-multigrid, MINI's condensed bubbles) and the stiffness ratio that chose it.
+of the "levels and time steps" table, ``--cases`` only the rows of these labels (one argument each: "paper",
+"fluid_in_solid_3d", "paper, nu = 1", ...) and ``--levels`` only these levels (with ``--max-level-3d`` above 3:
+the 3D fluid ball's and fluid_over_solid_3d's level 4). Each record names the velocity block's preconditioner
+(BoomerAMG, SSOR where the mass dominates, the p-multigrid, MINI's condensed bubbles) and the stiffness ratio that
+chose it.
 
     python benchmarks/robustness.py --solver petsc --json benchmarks/robustness_petsc.json
     python benchmarks/robustness.py --solver iterative --json benchmarks/robustness.json
     python benchmarks/robustness.py --tables "solid pressure,Taylor–Hood k = 2 in 3D,materials" \
         --json benchmarks/robustness_solid_pressure.json
-    python benchmarks/robustness.py --tables "levels and time steps" --cases fluid_in_solid_3d,fluid_over_solid_3d \
+    python benchmarks/robustness.py --tables "levels and time steps" --cases fluid_in_solid_3d fluid_over_solid_3d \
         --max-level-3d 4 --levels 4 --dt 0.1,0.01 --json benchmarks/robustness_large_dt_level4.json
 """
 from __future__ import annotations
@@ -120,17 +121,17 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--tables", default=None, help="only these tables (comma-separated names)")
     parser.add_argument("--dt", default=None, help="only these time steps (comma-separated)")
-    parser.add_argument("--cases", default=None, help="only the rows of these labels (comma-separated)")
+    parser.add_argument("--cases", nargs="+", default=None,
+                        help="only the rows of these labels (one argument each: the materials rows' have commas)")
     parser.add_argument("--levels", type=levels_arg, default=None, help="only these levels, 'A-B' or 'A'")
     parser.add_argument("--tolerance", type=tolerance_arg, default=1e-12,
                         help="1e-12 (the default), another number, or auto")
     args = parser.parse_args()
     time_steps = TIME_STEPS if args.dt is None else tuple(float(dt) for dt in args.dt.split(","))
     tables = None if args.tables is None else set(args.tables.split(","))
-    cases = None if args.cases is None else set(args.cases.split(","))
     records = []
     for table, label, case, level in rows(args.max_level_2d, args.max_level_3d, time_steps):
-        if ((tables is not None and table not in tables) or (cases is not None and label not in cases)
+        if ((tables is not None and table not in tables) or (args.cases is not None and label not in args.cases)
                 or (args.levels is not None and level not in args.levels)):
             continue
         record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
