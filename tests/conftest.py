@@ -1,4 +1,5 @@
 import os
+import signal
 
 import ngsolve as ngs
 import pytest
@@ -22,6 +23,17 @@ from fsivsp.geometry import FLUID, paper_channel, refined
 from fsivsp.solvers import AUTO, TOLERANCE
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
+
+
+@pytest.fixture(autouse=True)
+def ctrl_c_as_in_a_terminal():
+    """SIGINT caught by Python's KeyboardInterrupt, here and (reset to the default at exec) in the commands started,
+    as in a terminal's foreground, however the suite was started. A shell without job control starts a background
+    job (``pytest ... &`` in a script) with SIGINT ignored, and its processes inherit that: Ctrl-C then stops no run,
+    study or pool, as POSIX intends (`fsivsp.runtime.stopping.catch`), and the tests that send it would fail."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
 
 
 @pytest.fixture(scope="session")

@@ -22,10 +22,6 @@ from fsivsp.timestepping.scheme import Scheme
 ROOT = Path(__file__).parents[2]
 
 
-
-
-
-
 @pytest.mark.parametrize("signum, code, status", [(signal.SIGTERM, 143, "terminated"),
                                                   (signal.SIGINT, 130, "interrupted")])
 def test_signal_in_the_loop_then_resume_is_bit_identical(tmp_path, monkeypatch, capsys, signum, code, status):
@@ -45,6 +41,23 @@ def test_signal_in_the_loop_then_resume_is_bit_identical(tmp_path, monkeypatch, 
     assert resumed["energy"] == whole["energy"]
 
 
+def test_a_signal_ignored_from_the_start_stays_ignored(tmp_path, monkeypatch, capsys):
+    """SIGINT ignored when the run starts (a background job of a script): Ctrl-C at step 13 leaves it running to the
+    end, as the uninterrupted run; SIGTERM still stops it after the step."""
+    case = write_case(tmp_path, T=0.002, every=1000)   # 40 steps
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # the autouse fixture restores the handler
+    with monkeypatch.context() as patch:
+        signal_at_step(patch, 13, signal.SIGINT)
+        assert main(["run", str(case), "--out", str(tmp_path / "ignored"), "--quiet"]) == 0
+    assert final(tmp_path / "ignored")["status"] == "completed" and final(tmp_path / "ignored")["step"] == 40
+    assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN   # left as it was found
+    with monkeypatch.context() as patch:
+        signal_at_step(patch, 13, signal.SIGTERM)
+        assert main(["run", str(case), "--out", str(tmp_path / "terminated"), "--quiet"]) == 143
+    assert final(tmp_path / "terminated")["step"] == 13
+    capsys.readouterr()
+
+
 @pytest.mark.parametrize("signum, code, line", [(signal.SIGTERM, 143, "terminated during set-up: nothing written"),
                                                 (signal.SIGINT, 130, "interrupted during set-up: nothing written")])
 def test_signal_during_set_up_stops_at_once(tmp_path, monkeypatch, capsys, signum, code, line):
@@ -58,18 +71,6 @@ def test_signal_during_set_up_stops_at_once(tmp_path, monkeypatch, capsys, signu
     assert not out.exists() or list(out.iterdir()) == []   # no checkpoints, no summary.json, no series
 
 
-@pytest.fixture
-def ctrl_c_as_in_a_terminal():
-    """SIGINT caught by Python's KeyboardInterrupt, here and (reset to the default at exec) in the commands started,
-    as in a terminal's foreground. A shell without job control starts a background job (``pytest ... &`` in a
-    script) with SIGINT ignored, and its processes inherit that: Ctrl-C then stops no study, paper or pool, as POSIX
-    intends, and the tests that send it would fail (3 of them in every such run of the suite)."""
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    yield
-    signal.signal(signal.SIGINT, previous)
-
-
-@pytest.mark.usefixtures("ctrl_c_as_in_a_terminal")
 @pytest.mark.parametrize("command", [["study", str(ROOT / "examples" / "fluid_over_solid_2d.toml"), "--levels", "0-1"],
                                      ["paper", "--dt", "1e-2", "--levels", "0-1"]], ids=["study", "paper"])
 def test_ctrl_c_in_study_and_paper_is_one_line(monkeypatch, capsys, command):
@@ -99,7 +100,6 @@ def children(pid: int) -> list[int]:
     return [int(child) for child in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
 
 
-@pytest.mark.usefixtures("ctrl_c_as_in_a_terminal")
 def test_ctrl_c_in_paper_all_stops_its_workers_without_a_traceback(tmp_path):
     """Ctrl-C reaches the terminal's whole process group: the workers ignore it, the parent ends them."""
     paper = subprocess.Popen([sys.executable, "-m", "fsivsp", "paper", "--all", "--levels", "0-1", "--jobs", "2",

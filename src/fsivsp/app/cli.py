@@ -255,11 +255,11 @@ def run_command(args) -> int:
     from ..config.overrides import parse_overrides
     from ..io.atomic import WriteError
     from ..io.checkpoint import latest_checkpoint
-    from ..runtime.stopping import STOP_SIGNALS, Terminated, raise_terminated
+    from ..runtime.stopping import Terminated, catch, raise_terminated
     from .api import run
     from .loop import SolveDiverged
 
-    previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
+    previous = catch(raise_terminated)   # set-up: stop at once
     try:
         out = args.out or Path(args.case.stem)
         threads = solver_spec(args, "fsivsp run").threads   # checked before the case is read
@@ -292,10 +292,10 @@ def frequency_command(args, command: str, call) -> int:
     once, nothing written; later after the current frequency or outer iteration, with what was done written)."""
     from ..config.overrides import parse_overrides
     from ..io.atomic import WriteError
-    from ..runtime.stopping import STOP_SIGNALS, Terminated, raise_terminated
+    from ..runtime.stopping import Terminated, catch, raise_terminated
     from ..solvers import SolverError
 
-    previous = {signum: signal.signal(signum, raise_terminated) for signum in STOP_SIGNALS}  # set-up: stop at once
+    previous = catch(raise_terminated)   # set-up: stop at once
     try:
         out = args.out or Path(args.case.stem)
         threads = solver_spec(args, f"fsivsp {command}").threads   # checked before the case is read

@@ -1,5 +1,6 @@
 """Stopping a run by SIGINT or SIGTERM (`STOP_SIGNALS`): during set-up at once (`raise_terminated`), in the time
-loop after the current step and its checkpoint (`Interrupt`); either way a `Terminated`."""
+loop after the current step and its checkpoint (`Interrupt`); either way a `Terminated`. A signal the process was
+started ignoring stays ignored (`catch`)."""
 from __future__ import annotations
 
 import signal
@@ -33,6 +34,14 @@ def raise_terminated(signum, _frame) -> None:
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
+def catch(handler) -> dict:
+    """``handler`` for each of `STOP_SIGNALS` not ignored now; the handlers it replaced, to restore. An ignored
+    signal stays ignored, as POSIX intends: a shell without job control starts a background job (``fsivsp run … &``
+    in a script) with SIGINT ignored, so that the script's Ctrl-C leaves it running, as it leaves ``fsivsp study``."""
+    return {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS
+            if signal.getsignal(signum) is not signal.SIG_IGN}
+
+
 class Interrupt:
     """SIGINT and SIGTERM set a flag; the time loop finishes the current step, checkpoints and stops."""
 
@@ -40,12 +49,12 @@ class Interrupt:
         self.requested = 0
 
     def __enter__(self):
-        self._previous = [signal.signal(signum, self._handle) for signum in STOP_SIGNALS]
+        self._previous = catch(self._handle)
         return self
 
     def _handle(self, signum, _frame):
         self.requested = signum
 
     def __exit__(self, *exc):
-        for signum, previous in zip(STOP_SIGNALS, self._previous):
+        for signum, previous in self._previous.items():
             signal.signal(signum, previous)
