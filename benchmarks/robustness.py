@@ -1,7 +1,8 @@
 """Robustness of an iterative solver: mean and largest iterations per step against the level, Δt and the
 materials (issue 12's table; issue 22's for PETSc, with λ/μ = 10⁴ and Taylor–Hood k = 2 in 3D; issue 33's
 "solid pressure" table, λ/μ = 10², 10⁴ with ``solid_pressure`` "none" and "continuous" in 2D and 3D; its "Taylor–Hood
-k = 1 at large dt in 3D" table, the 3D examples at Δt ≥ 10⁻² with Taylor–Hood k = 1 in place of MINI).
+in 2D" table, the paper's case with Taylor–Hood k = 1, 2, and its "Taylor–Hood k = 1 at large dt in 3D" table, the 3D
+examples at Δt ≥ 10⁻² with Taylor–Hood k = 1 in place of MINI).
 
 Each row: the case's manufactured data on its coarse mesh refined ``level`` times, ``--steps`` steps of the
 scheme with ``--solver`` at ``--tolerance`` (default 1e-12 of the right-hand side, the tables' basis since issue 12;
@@ -21,6 +22,7 @@ chose it.
         --max-level-3d 4 --levels 4 --dt 0.1,0.01 --json benchmarks/robustness_large_dt_level4.json
     python benchmarks/robustness.py --tables "Taylor–Hood k = 1 at large dt in 3D" \
         --json benchmarks/robustness_large_dt_taylor_hood.json
+    python benchmarks/robustness.py --tables "Taylor–Hood in 2D" --json benchmarks/robustness_taylor_hood_2d.json
 """
 from __future__ import annotations
 
@@ -97,6 +99,11 @@ def rows(max_level_2d: int, max_level_3d: int, time_steps=TIME_STEPS):
         for dt in time_steps:
             for level in range(max_level_3d + 1):
                 yield "levels and time steps", example, dataclasses.replace(base, dt=dt), level
+    for order in (1, 2):
+        for dt in time_steps:
+            for level in range(max_level_2d + 1):
+                yield "Taylor–Hood in 2D", f"paper, Taylor–Hood k = {order}", \
+                    paper_case(dt).with_discretisation(family="taylor_hood", order=order), level
     for example in ("fluid_in_solid_3d", "solid_in_fluid_3d", "fluid_over_solid_3d"):
         base = load_study_case(EXAMPLES / f"{example}.toml").with_discretisation(family="taylor_hood", order=1)
         for dt in (dt for dt in time_steps if dt >= LARGE_DT):

@@ -127,9 +127,12 @@ DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
 _ELASTICITY = {key.removeprefix("fieldsplit_velocity_"): value for key, value in ELASTICITY_3D.items()}
 
-#: The velocity block by the two-level p-multigrid of `petsc_pmg` (Taylor–Hood where it is the default,
-#: `default_velocity`): two symmetric SOR sweeps on all velocity dofs, one BoomerAMG V-cycle with hypre's elasticity
-#: options on the vertex (P1) dofs (in 3D over the 3D settings of `DEFAULTS_3D`, as on the velocity).
+#: The velocity block by the two-level p-multigrid of `petsc_pmg` (Taylor–Hood's default, `default_velocity`): two
+#: symmetric SOR sweeps on all velocity dofs, one BoomerAMG V-cycle on the vertex (P1) dofs, in 3D with hypre's
+#: elasticity options over the 3D settings of `DEFAULTS_3D` (as on the velocity), in 2D with hypre's own: there the
+#: elasticity options made the paper's case with Taylor–Hood k = 1 at Δt = 0.1 take 12.0, 14.3, 16.0, 23.3 iterations
+#: on levels 1–4 against 12.3, 13.3, 15.3, 17.3 (13.5 against 7.5 s on level 4; at 10⁻² 14.7 on level 4 either way,
+#: 8.8 against 6.3 s; BENCHMARKS.md, "Taylor–Hood in 2D").
 DEFAULTS_PMG: dict[str, str] = {
     "velocity_preconditioner": "p-multigrid",
     "fieldsplit_velocity_pc_type": "none",   # replaced by the two-level cycle after the fieldsplit's set-up
@@ -138,7 +141,6 @@ DEFAULTS_PMG: dict[str, str] = {
     f"{SMOOTH}ksp_norm_type": "none",
     f"{SMOOTH}pc_type": "sor",
     f"{COARSE}pc_type": "hypre",
-    **{f"{COARSE}{key}": value for key, value in _ELASTICITY.items()},
 }
 
 
@@ -193,14 +195,15 @@ STIFF_F_CYCLES: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_max_iter":
 def default_velocity(spaces: Spaces, nodal: bool = True) -> str:
     """The velocity block's preconditioner by default (where it is BoomerAMG, SSOR if the mass dominates:
     `petsc_mass.MASS_DOMINATED`): MINI's bubbles condensed in 3D without a solid pressure (``nodal``: PETSc's velocity
-    rows node by node, `petsc_layout`, so that a cell's d bubble rows are adjacent); for Taylor–Hood in 3D or with a
-    solid pressure the p-multigrid; else BoomerAMG. MINI in 2D or with a solid pressure and Taylor–Hood in 2D without
-    one keep BoomerAMG (the paper's discretisation: its measured tables unchanged; with a solid pressure the condensed
-    block is faster but grows more, `DEFAULTS_CONDENSED`)."""
+    rows node by node, `petsc_layout`, so that a cell's d bubble rows are adjacent); for Taylor–Hood the p-multigrid
+    (in 2D too since issue 33's ninth session: BoomerAMG on the hierarchical P2 basis took 20.7, 29.3, 52.3, 166.3
+    iterations on the paper's levels 1–4 at Δt = 0.1); else BoomerAMG. MINI in 2D or with a solid pressure keeps
+    BoomerAMG (the paper's discretisation: its measured tables unchanged; with a solid pressure the condensed block is
+    faster but grows more, `DEFAULTS_CONDENSED`)."""
     three = spaces.mesh.dim == 3
     if spaces.family == "mini" and three and nodal and spaces.solid_pressure is None:
         return "condensed"
-    if spaces.family == "taylor_hood" and (three or spaces.solid_pressure is not None):
+    if spaces.family == "taylor_hood":
         return "p-multigrid"
     return "boomeramg"
 
@@ -217,9 +220,9 @@ def velocity_options(spaces: Spaces, name: str, mass_dominated: bool = False) ->
     elif name == "condensed":
         options.update({**DEFAULTS_CONDENSED, **({} if mass_dominated else STIFF_F_CYCLES)})
     elif name == "p-multigrid":
-        coarse = {key.removeprefix("fieldsplit_velocity_"): value for key, value in DEFAULTS_3D.items()
-                  if three and key.startswith("fieldsplit_velocity_")}
-        options.update({**DEFAULTS_PMG, **{COARSE + key: value for key, value in {**coarse, **_ELASTICITY}.items()}})
+        coarse = ({key.removeprefix("fieldsplit_velocity_"): value for key, value in DEFAULTS_3D.items()
+                   if key.startswith("fieldsplit_velocity_")} | _ELASTICITY) if three else {}
+        options.update({**DEFAULTS_PMG, **{COARSE + key: value for key, value in coarse.items()}})
         if spaces.order >= 2:
             options.update(PMG_HIGHER)
     return options
