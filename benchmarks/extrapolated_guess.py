@@ -8,7 +8,7 @@ xⁿ⁻¹ in the checkpoint). The paper's experiment, Δt = 1e-2, 20 steps, the 
 import numpy as np
 
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import discretise
+from fsivsp.experiments.study import case_scheme
 from fsivsp.geometry import refined
 from fsivsp.solvers import SolverSpec
 from fsivsp.timestepping.scheme import Scheme
@@ -16,7 +16,7 @@ from fsivsp.timestepping.scheme import Scheme
 
 def run(extrapolate, level, steps, tol):
     case = paper_case(1e-2, solver=SolverSpec("petsc", tolerance=tol))
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, False))
+    scheme = case_scheme(case, refined(case.coarse_mesh(), level, False))
     previous = []
     original = Scheme.guess
     def guess(self):

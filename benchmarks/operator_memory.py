@@ -16,7 +16,7 @@ import ngsolve as ngs
 
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.report import write_json
-from fsivsp.experiments.study import discretise
+from fsivsp.experiments.study import case_scheme
 from fsivsp.fem import forms
 from fsivsp.geometry import SOLID, refined
 from fsivsp.solvers import compact
@@ -50,7 +50,7 @@ def stress_space_operators(spaces, mat, dt) -> dict[str, int]:
 def measure(example: str, family: str, level: int) -> dict:
     case = load_study_case(EXAMPLES / f"{example}.toml").with_discretisation(family=family, order=1) \
         .with_solver(method="iterative")
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
+    scheme = case_scheme(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
     spaces, free = scheme.spaces, scheme.spaces.free_dofs()
     lean = {"step": scheme._matrix.nze, "lagged mass": scheme._lagged_mass.nze, "stiffness": scheme._stiffness.nze}
     vectors = 8 * 6 * spaces.mixed.ndof  # state, displacement, rhs, boundary, work, offset load

@@ -14,7 +14,7 @@ from pathlib import Path
 import ngsolve as ngs
 
 from fsivsp.config.case import load_study_case
-from fsivsp.experiments.study import discretise, max_edge_length
+from fsivsp.experiments.study import case_scheme, max_edge_length
 from fsivsp.fem.forms import eps
 from fsivsp.geometry import FLUID, SOLID, refined
 from fsivsp.model.fields import Field
@@ -30,7 +30,7 @@ def a_norm2(e, a):
 
 def level(case, mesh, lvl):
     start = time.perf_counter()
-    scheme, _ = discretise(case, mesh)
+    scheme = case_scheme(case, mesh)
     setup = time.perf_counter() - start
     start = time.perf_counter()
     scheme.march(case.steps)

@@ -16,14 +16,14 @@ import numpy as np
 from fsivsp.config.case import load_study_case
 from fsivsp.geometry import refined
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import discretise
+from fsivsp.experiments.study import case_scheme
 from fsivsp.runtime.threads import using
 where, solver, threads, level, tolerance = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), \
 float(sys.argv[5])
 with using(threads):
     case = paper_case(1e-2) if where == "paper" else load_study_case(where)
     case = case.with_solver(method=solver, tolerance=tolerance)
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
+    scheme = case_scheme(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
     scheme.march(3)
     print(scheme.state.vec.FV().NumPy().tobytes().hex())
 """
@@ -163,7 +163,7 @@ def test_default_threads_take_one_for_a_2d_factorisation(monkeypatch):
     its dimension and solver: the paper's level 0 with THREADS_MIN_DOFS out of the way takes one thread with the
     direct solver and two with PETSc."""
     from fsivsp.experiments.paper import paper_case
-    from fsivsp.experiments.study import discretise
+    from fsivsp.experiments.study import case_scheme
     from fsivsp.geometry import paper_channel
     from fsivsp.runtime import threads
     from fsivsp.runtime.threads import THREADS_MIN_DOFS, current, fit, using
@@ -182,5 +182,5 @@ def test_default_threads_take_one_for_a_2d_factorisation(monkeypatch):
         if method == "petsc" and petsc_available() is not None:
             continue
         with using():
-            discretise(paper_case(1e-2).with_solver(method=method), paper_channel())
+            case_scheme(paper_case(1e-2).with_solver(method=method), paper_channel())
             assert current() == expected, method

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import discretise, study
+from fsivsp.experiments.study import case_scheme, study
 from fsivsp.geometry import refined
 from fsivsp.solvers import START_REDUCTION, TOLERANCE, auto_target, petsc_available
 from fsivsp.timestepping.schemes import Theta
@@ -45,7 +45,7 @@ def test_auto_stopping_rule():
     extrapolated start x₀ it stops once ‖b − Ax‖ ≤ 1e-4 ‖b − Ax₀‖, from another start at 1e-8 of it (the scheme's
     ρ through `auto_target`), both before 1e-12 ‖b‖ (checked with NGSolve's product)."""
     case = paper_case(1e-2).with_solver(method="petsc")
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), 1, case.discretisation.project_refinement))
+    scheme = case_scheme(case, refined(case.coarse_mesh(), 1, case.discretisation.project_refinement))
     solver, matrix = scheme.solver, scheme.step_matrix
     free = np.array(scheme.spaces.mixed.FreeDofs(), dtype=bool)
     b, x, zero, r = (matrix.CreateColVector() for _ in range(4))

@@ -10,7 +10,7 @@ import pytest
 
 from fsivsp.app.cli import main
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import discretise, manufactured_data, run_level
+from fsivsp.experiments.study import case_scheme, manufactured_data, run_level
 from fsivsp.geometry import refined
 from fsivsp.model.manufactured import ExactSolution
 from fsivsp.solvers import NotConverged, SolverSpec, petsc_available
@@ -41,12 +41,12 @@ _FINAL_STATE = """
 import hashlib
 from fsivsp.geometry import refined
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import discretise
+from fsivsp.experiments.study import case_scheme
 from fsivsp.runtime.threads import using
 from fsivsp.solvers import SolverSpec
 case = paper_case(1e-2, solver=SolverSpec("iterative"))
 with using(1):  # bit-identical on one thread; on more, runs agree to round-off (docs/solvers.md, "Threads")
-    scheme, _ = discretise(case, refined(case.coarse_mesh(), 2, case.discretisation.project_refinement))
+    scheme = case_scheme(case, refined(case.coarse_mesh(), 2, case.discretisation.project_refinement))
     scheme.march(3)
 print(hashlib.sha1(scheme.state.vec.FV().NumPy().tobytes()).hexdigest())
 """
@@ -69,7 +69,7 @@ def test_not_converged_is_an_error():
 def test_zero_data_is_a_zero_solution():
     """All data zero: every step's right-hand side vanishes; FGMRES returns zero in 0 iterations."""
     case = paper_case(1e-2, solver=SolverSpec("iterative"))
-    spaces = discretise(case, refined(case.coarse_mesh(), 0, False))[0].spaces
+    spaces = case_scheme(case, refined(case.coarse_mesh(), 0, False)).spaces
     zero = ExactSolution.parse(["0", "0"], "0", ["0", "0"], 2)
     scheme = Scheme(spaces, case.materials, manufactured_data(zero, case.materials, spaces.dirichlet,
                                                               case.discretisation.initial_stress),

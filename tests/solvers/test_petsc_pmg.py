@@ -9,7 +9,7 @@ from support.incompressible import counts, incompressible
 
 from fsivsp.config.case import CaseError, load_study_case
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import dirichlet_boundaries, discretise, study
+from fsivsp.experiments.study import case_scheme, dirichlet_boundaries, study
 from fsivsp.fem.spaces import build_spaces
 from fsivsp.geometry import refined
 from fsivsp.solvers import petsc_available
@@ -70,7 +70,7 @@ def test_condensed_cycles_on_f_follow_the_stiffness_ratio(example, dt, cycles):
     case = dataclasses.replace(example("fluid_in_solid_3d"), dt=dt)
     mesh = refined(case.coarse_mesh(), 1, case.discretisation.project_refinement)
     for options, expected in (({}, cycles), ({F_CYCLES: "3"}, "3")):
-        scheme, _ = discretise(case.with_solver(method="petsc", petsc=options), mesh)
+        scheme = case_scheme(case.with_solver(method="petsc", petsc=options), mesh)
         solver = scheme.solver
         assert solver.options["velocity_preconditioner"] == "condensed"
         assert (solver.stiffness_ratio <= MASS_DOMINATED) == (cycles == "2"), solver.stiffness_ratio
