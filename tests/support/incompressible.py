@@ -1,5 +1,5 @@
 """Nearly incompressible solids for the PETSc robustness tests: a case at λ/μ = 10⁴ with a solid pressure, and the
-mean iterations per step of its study."""
+mean iterations per step of its scheme, without error norms."""
 import dataclasses
 
 from fsivsp.experiments.study import case_scheme
