@@ -34,11 +34,10 @@ from pathlib import Path
 from fsivsp.app.arguments import levels_arg, tolerance_arg
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import dirichlet_boundaries, manufactured_data
-from fsivsp.fem.spaces import build_spaces, resolve_solid_pressure
+from fsivsp.experiments.study import case_scheme
+from fsivsp.fem.spaces import resolve_solid_pressure
 from fsivsp.geometry import refined
 from fsivsp.io.atomic import write_json
-from fsivsp.timestepping.scheme import Scheme
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
 TIME_STEPS = (1e-1, 1e-2, 1e-3, 1e-4)
@@ -50,21 +49,14 @@ MAX_ITERATIONS = 20_000
 
 def iterations(case, level: int, steps: int, solver: str, tolerance: float | str = 1e-12) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
-    dirichlet = dirichlet_boundaries(mesh)
-    solid_pressure = resolve_solid_pressure(case.discretisation.solid_pressure, case.materials)
-    spaces = build_spaces(mesh, case.discretisation.family, case.discretisation.order, dirichlet,
-                          solid_pressure=solid_pressure)
-    data = manufactured_data(case.exact, case.materials, dirichlet, case.discretisation.initial_stress,
-                             case.discretisation.initial_velocity)
     start = time.perf_counter()
-    scheme = Scheme(spaces, case.materials, data, case.dt,
-                    solver=case.with_solver(method=solver, max_iterations=MAX_ITERATIONS, tolerance=tolerance).solver)
+    scheme = case_scheme(case.with_solver(method=solver, max_iterations=MAX_ITERATIONS, tolerance=tolerance), mesh)
     scheme.march(steps)
     statistics = scheme.solver.statistics()
     scheme.solver.destroy()   # else each row's PETSc objects live to the end (4 level-3 rows: 1.56 GiB, not 0.91)
-    return {"dofs": spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
+    return {"dofs": scheme.spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
             "max": statistics["iterations"]["max"], "preconditioner": statistics["preconditioner"],
-            "solid_pressure": solid_pressure,
+            "solid_pressure": resolve_solid_pressure(case.discretisation.solid_pressure, case.materials),
             "seconds": time.perf_counter() - start}
 
 

@@ -55,7 +55,9 @@ def test_a_signal_ignored_from_the_start_stays_ignored(tmp_path, monkeypatch, ca
         signal_at_step(patch, 13, signal.SIGTERM)
         assert main(["run", str(case), "--out", str(tmp_path / "terminated"), "--quiet"]) == 143
     assert final(tmp_path / "terminated")["step"] == 13
-    capsys.readouterr()
+    checkpoint = tmp_path / "terminated" / "checkpoints" / "checkpoint_000013.npz"
+    assert capsys.readouterr().err.strip().splitlines() == [   # nothing from the ignored SIGINT
+        f"terminated at step 13 (t = 0.00065): checkpoint {checkpoint}; continue with --resume"]
 
 
 @pytest.mark.parametrize("signum, code, line", [(signal.SIGTERM, 143, "terminated during set-up: nothing written"),

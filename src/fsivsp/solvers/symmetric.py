@@ -91,9 +91,11 @@ class PETScCG:
         self.ksp = PETSc.KSP().create(comm=PETSc.COMM_SELF)
         self.ksp.setOperators(self.A, self.P)
         self.ksp.setType("cg")
-        if kernel is not None:   # the kernel as GAMG's near-nullspace
+        if kernel is None:
+            self.ksp.getPC().setType("hypre")
+        else:   # the kernel as GAMG's near-nullspace
             self.P.setNearNullSpace(self.nullspace)
-        self.ksp.getPC().setType("gamg" if kernel is not None else "hypre")
+            self.ksp.getPC().setType("gamg")
         self.ksp.setTolerances(rtol=TOLERANCE, atol=0.0, max_it=MAX_ITERATIONS)
         self.ksp.setUp()
         self._b, self._x = self.A.createVecs()
