@@ -23,6 +23,8 @@ chose it.
     python benchmarks/robustness.py --tables "Taylor–Hood k = 1 at large dt in 3D" \
         --json benchmarks/robustness_large_dt_taylor_hood.json
     python benchmarks/robustness.py --tables "Taylor–Hood in 2D" --json benchmarks/robustness_taylor_hood_2d.json
+    python benchmarks/robustness.py --tables "Taylor–Hood in 2D" \
+        --json benchmarks/robustness_taylor_hood_2d_higher_weight.json
 """
 from __future__ import annotations
 

@@ -3,6 +3,7 @@ iteration counts bounded over levels (and not with Jacobi in place of the fields
 the case file and the command line."""
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -89,6 +90,11 @@ def test_petsc_options_validated():
     with pytest.raises(CaseError, match=r"velocity_preconditioner: expected one of boomeramg, ssor, p-multigrid, "
                                         r"condensed, got 'amg'"):
         read_petsc_options({"velocity_preconditioner": "amg"})
+    assert read_petsc_options({"schur_higher_weight": 4}) == {"schur_higher_weight": "4"}
+    for bad in (0, -1, "heavy", True, "nan"):
+        with pytest.raises(CaseError, match=rf"solver.petsc.schur_higher_weight: expected a positive number, got "
+                                            rf"{re.escape(repr(bad))}"):
+            read_petsc_options({"-schur_higher_weight": bad})
 
 
 def test_command_line_options(capsys):

@@ -57,6 +57,7 @@ DEFAULTS: dict[str, str] = {
     "fieldsplit_velocity_pc_type": "hypre",
     "fieldsplit_pressure_ksp_type": "preonly",
     "schur_approximation": "lsc",
+    "schur_higher_weight": "1",
     "schur_laplacian_pc_type": "hypre",
     "schur_laplacian_pc_hypre_boomeramg_max_iter": "2",
 }
@@ -122,6 +123,17 @@ DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boom
 #: hierarchical basis makes F a poor M-matrix for BoomerAMG: the 3D solid ball, Taylor–Hood k = 2, levels 0–1:
 #: 168, 185 iterations with one sweep, 54, 67 with three (12, 13 with F and the velocity block factorised).
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
+
+
+#: Taylor–Hood k ≥ 2 in 2D: the commutator's weights D = diag(A) times 4 on the velocity's higher dofs
+#: (`petsc_schur.commutator`). With diag(A) there the commutator overweights smooth pressures by a factor growing like
+#: h⁻² (κ(P⁻¹S), velocity block exact, the paper's case at Δt = 0.1, levels 1–3: 2.8, 7.8, 27; ×4: 2.3, 2.7, 5.5,
+#: ×16: 5.0, 4.8, 5.2, but then F is hard for BoomerAMG: 54–69 iterations). The paper's case, levels 1–4, iterations
+#: a step at Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 13.3, 16.3, 22.3, 31.7 → 19.3, 19.7, 19.7, 22.7; 11.3, 12.7, 19.3, 29.0 →
+#: 16.7, 18.3, 20.3, 23.3; 9.0, 10.0, 12.7, 15.7 → 10.3, 10.3, 10.0, 10.3; 4.7, 5.0, 6.7, 10.3 → 4.7, 5.0, 5.7, 6.3
+#: (level 4, 528 723 unknowns: 53 against 81 s a row at Δt = 0.1). In 3D it costs (solid_in_fluid_3d at Δt = 0.02,
+#: levels 0–1: 26.3, 27.0 → 31.3, 34.3) and 3D keeps 1.
+DEFAULTS_HIGHER_2D: dict[str, str] = {"schur_higher_weight": "4"}
 
 
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
@@ -285,6 +297,7 @@ class PETScSolver:
         defaults = {**DEFAULTS,
                     **velocity_options(spaces, velocity, mass),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
+                    **(DEFAULTS_HIGHER_2D if spaces.order >= 2 and spaces.mesh.dim == 2 else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}

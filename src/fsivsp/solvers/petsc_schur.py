@@ -89,9 +89,15 @@ def install(solver, context: SchurPreconditioner) -> SchurPreconditioner:
 
 
 def commutator(solver, spaces: Spaces, a, c):
-    """(C Y, Yᵀ A Y, Y), Y = diag(A)⁻¹ Cᵀ: the least-squares commutator's Laplacian and middle factor, the middle
-    factor corrected on the higher dofs for MINI and Taylor–Hood k = 1 (`correct_higher`)."""
-    laplacian, y = pressure_laplacian(solver.PETSc, c, a.getDiagonal())
+    """(C Y, Yᵀ A Y, Y), Y = D⁻¹ Cᵀ: the least-squares commutator's Laplacian and middle factor, the middle factor
+    corrected on the higher dofs for MINI and Taylor–Hood k = 1 (`correct_higher`). D = diag(A), times ``w =
+    schur_higher_weight`` on the higher dofs (`petsc.DEFAULTS_HIGHER_2D`): their share of Yᵀ A Y, which overweights a
+    smooth pressure, falls like w⁻², their share of F like w⁻¹."""
+    weights = a.getDiagonal()
+    weight = float(solver.options.get("schur_higher_weight", 1))
+    if weight != 1:
+        weights.pointwiseMult(weights, solver.field_vector(np.where(higher_rows(solver, spaces), weight, 1.0)))
+    laplacian, y = pressure_laplacian(solver.PETSc, c, weights)
     middle = galerkin(solver.PETSc, a, y)
     if spaces.family == "mini" or spaces.order == 1:
         correct_higher(solver, middle, a, c, y, spaces)

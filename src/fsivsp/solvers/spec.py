@@ -2,6 +2,7 @@
 and ``[solver]``, the command line, code) and passed unchanged to `Scheme` and the backends of `step_solver`."""
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import InitVar, dataclass, field
@@ -45,7 +46,19 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
     if options.get("velocity_preconditioner", VELOCITY_PRECONDITIONERS[0]) not in VELOCITY_PRECONDITIONERS:
         raise expected(f"{where}.velocity_preconditioner", f"one of {', '.join(VELOCITY_PRECONDITIONERS)}",
                        options["velocity_preconditioner"])
+    if "schur_higher_weight" in options and not _positive(options["schur_higher_weight"]):
+        raise expected(f"{where}.schur_higher_weight", "a positive number",
+                       next(v for k, v in table.items() if k.lstrip("-") == "schur_higher_weight"))
     return options
+
+
+def _positive(text: str) -> bool:
+    """Whether ``text`` reads as a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        return False
+    return math.isfinite(value) and value > 0
 
 
 @dataclass(frozen=True)
