@@ -73,7 +73,7 @@ def test_case_file_options_reach_petsc(tmp_path):
     assert main(["study", str(case), "--levels", "0", "--json", str(out), "--quiet"]) == 0
     record = json.loads(out.read_text())[0]
     assert record["solver"] == "petsc" and record["preconditioner"]["ksp"] == "gmres"
-    assert record["preconditioner"]["pressure"] == "lsc"
+    assert record["preconditioner"]["pressure"] == "lsc" and record["preconditioner"]["schur_higher_weight"] == 1.0
     from petsc4py import PETSc
     assert not PETSc.Options().hasName("fsivsp_ksp_type")
 

@@ -131,8 +131,8 @@ DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_
 #: ×16: 5.0, 4.8, 5.2, but then F is hard for BoomerAMG: 54–69 iterations). The paper's case, levels 1–4, iterations
 #: a step at Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 13.3, 16.3, 22.3, 31.7 → 19.3, 19.7, 19.7, 22.7; 11.3, 12.7, 19.3, 29.0 →
 #: 16.7, 18.3, 20.3, 23.3; 9.0, 10.0, 12.7, 15.7 → 10.3, 10.3, 10.0, 10.3; 4.7, 5.0, 6.7, 10.3 → 4.7, 5.0, 5.7, 6.3
-#: (level 4, 528 723 unknowns: 53 against 81 s a row at Δt = 0.1). In 3D it costs (solid_in_fluid_3d at Δt = 0.02,
-#: levels 0–1: 26.3, 27.0 → 31.3, 34.3) and 3D keeps 1.
+#: (level 4, 528 723 unknowns: 45.8 against 80.8 s a row at Δt = 0.1; BENCHMARKS.md, "Taylor–Hood k = 2 in 2D"). In
+#: 3D it costs (solid_in_fluid_3d at Δt = 0.02, levels 0–1: 26.3, 27.0 → 31.3, 34.3) and 3D keeps 1.
 DEFAULTS_HIGHER_2D: dict[str, str] = {"schur_higher_weight": "4"}
 
 
@@ -456,5 +456,6 @@ class PETScSolver:
                                    + self.options.get("pc_fieldsplit_type", ""),
                                    "velocity": self.options["velocity_preconditioner"],
                                    "stiffness_ratio": self.stiffness_ratio,
-                                   "pressure": self.options["schur_approximation"]},
+                                   "pressure": self.options["schur_approximation"],
+                                   "schur_higher_weight": float(self.options["schur_higher_weight"])},
                 "iterations": {"mean": float(np.mean(counts)), "max": int(max(counts)), "solves": len(self.iterations)}}

@@ -4,7 +4,8 @@ matrix [[A, Cᵀ], [C, 0]] (C = −ΔtB), as PETSc's Python PC built with PETSc'
 - the least-squares commutator (Elman et al.), S⁻¹ ≈ F⁻¹ (Yᵀ A Y − E) F⁻¹ with Y = diag(A)⁻¹ Cᵀ and F = C Y (a
   pressure Laplacian, F⁻¹ by BoomerAMG cycles); "corrected" for MINI's bubbles (and Taylor–Hood k = 1's edge
   dofs), whose part Y_hᵀ A_hh Y_h of the middle factor is replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (E their
-  difference): without it the bubbles' stiffness, scaled by Δt² λ, dominates the middle factor;
+  difference): without it the bubbles' stiffness, scaled by Δt² λ, dominates the middle factor; for Taylor–Hood
+  k ≥ 2 in 2D, where that replacement underestimates, diag(A) weighted ×4 on the higher dofs instead (`commutator`);
 - Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + diag(M_p/(2ν))⁻¹/Δt, F_ρ = C diag(ρM)⁻¹ Cᵀ: the mass's and the viscosity's
   limits of S added (ν region-wise where fluids differ).
 """
