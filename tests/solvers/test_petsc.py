@@ -90,6 +90,9 @@ def test_petsc_options_validated():
     with pytest.raises(CaseError, match=r"velocity_preconditioner: expected one of boomeramg, ssor, p-multigrid, "
                                         r"condensed, got 'amg'"):
         read_petsc_options({"velocity_preconditioner": "amg"})
+    with pytest.raises(CaseError, match=r"schur_approximation: expected one of lsc, cahouet-chabard, petsc, joint-lsc, "
+                                        r"joint-lsc-mass, joint-cahouet-chabard, got 'bfbt'"):
+        read_petsc_options({"schur_approximation": "bfbt"})
     assert read_petsc_options({"schur_higher_weight": 4}) == {"schur_higher_weight": "4"}
     for bad in (0, -1, "heavy", True, "nan"):
         with pytest.raises(CaseError, match=rf"solver.petsc.schur_higher_weight: expected a positive number, got "

@@ -19,6 +19,10 @@ PETSC_OPTION = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 #: The velocity block's preconditioners (``[solver.petsc] velocity_preconditioner``; `petsc.velocity_options`).
 VELOCITY_PRECONDITIONERS = ("boomeramg", "ssor", "p-multigrid", "condensed")
 
+#: The pressure block's approximations (``[solver.petsc] schur_approximation``; `petsc_schur`, `petsc_joint`: the
+#: joint ones with a solid pressure).
+SCHUR_APPROXIMATIONS = ("lsc", "cahouet-chabard", "petsc", "joint-lsc", "joint-lsc-mass", "joint-cahouet-chabard")
+
 
 def solver_names() -> list[str]:
     """The methods a `SolverSpec` takes here."""
@@ -46,6 +50,9 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
     if options.get("velocity_preconditioner", VELOCITY_PRECONDITIONERS[0]) not in VELOCITY_PRECONDITIONERS:
         raise expected(f"{where}.velocity_preconditioner", f"one of {', '.join(VELOCITY_PRECONDITIONERS)}",
                        options["velocity_preconditioner"])
+    if options.get("schur_approximation", SCHUR_APPROXIMATIONS[0]) not in SCHUR_APPROXIMATIONS:
+        raise expected(f"{where}.schur_approximation", f"one of {', '.join(SCHUR_APPROXIMATIONS)}",
+                       options["schur_approximation"])
     if "schur_higher_weight" in options and not _positive(options["schur_higher_weight"]):
         raise expected(f"{where}.schur_higher_weight", "a positive number",
                        next(v for k, v in table.items() if k.lstrip("-") == "schur_higher_weight"))
