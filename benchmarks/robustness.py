@@ -36,7 +36,7 @@ from pathlib import Path
 from fsivsp.app.arguments import levels_arg, tolerance_arg
 from fsivsp.config.case import load_study_case
 from fsivsp.experiments.paper import paper_case
-from fsivsp.experiments.study import case_scheme
+from fsivsp.experiments.study import solver_statistics
 from fsivsp.fem.spaces import resolve_solid_pressure
 from fsivsp.geometry import refined
 from fsivsp.io.atomic import write_json
@@ -52,11 +52,9 @@ MAX_ITERATIONS = 20_000
 def iterations(case, level: int, steps: int, solver: str, tolerance: float | str = 1e-12) -> dict:
     mesh = refined(case.coarse_mesh(), level, case.discretisation.project_refinement)
     start = time.perf_counter()
-    scheme = case_scheme(case.with_solver(method=solver, max_iterations=MAX_ITERATIONS, tolerance=tolerance), mesh)
-    scheme.march(steps)
-    statistics = scheme.solver.statistics()
-    scheme.solver.destroy()   # else each row's PETSc objects live to the end (4 level-3 rows: 1.56 GiB, not 0.91)
-    return {"dofs": scheme.spaces.free_dofs(), "mean": statistics["iterations"]["mean"],
+    statistics = solver_statistics(case.with_solver(method=solver, max_iterations=MAX_ITERATIONS, tolerance=tolerance),
+                                   mesh, steps)
+    return {"dofs": statistics["dofs"], "mean": statistics["iterations"]["mean"],
             "max": statistics["iterations"]["max"], "preconditioner": statistics["preconditioner"],
             "solid_pressure": resolve_solid_pressure(case.discretisation.solid_pressure, case.materials),
             "seconds": time.perf_counter() - start}

@@ -2,7 +2,7 @@
 mean iterations per step of its scheme, without error norms."""
 import dataclasses
 
-from fsivsp.experiments.study import case_scheme
+from fsivsp.experiments.study import solver_statistics
 from fsivsp.geometry import refined
 
 
@@ -18,10 +18,8 @@ def counts(case, levels, velocity: str | None = None) -> list[float]:
     must have used), without error norms."""
     found = []
     for level in levels:
-        scheme = case_scheme(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement))
-        scheme.march(case.steps)
-        statistics = scheme.solver.statistics()
-        scheme.solver.destroy()
+        statistics = solver_statistics(case, refined(case.coarse_mesh(), level, case.discretisation.project_refinement),
+                                       case.steps)
         assert velocity is None or statistics["preconditioner"]["velocity"] == velocity, statistics
         found.append(statistics["iterations"]["mean"])
     return found

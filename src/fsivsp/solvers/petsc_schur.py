@@ -95,7 +95,7 @@ def commutator(solver, spaces: Spaces, a, c):
     schur_higher_weight`` on the higher dofs (`petsc.DEFAULTS_HIGHER_2D`): their share of Yᵀ A Y, which overweights a
     smooth pressure, falls like w⁻², their share of F like w⁻¹."""
     weights = a.getDiagonal()
-    weight = float(solver.options.get("schur_higher_weight", 1))
+    weight = float(solver.options["schur_higher_weight"])
     if weight != 1:
         weights.pointwiseMult(weights, solver.field_vector(np.where(higher_rows(solver, spaces), weight, 1.0)))
     laplacian, y = pressure_laplacian(solver.PETSc, c, weights)
