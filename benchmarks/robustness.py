@@ -25,11 +25,16 @@ chose it.
     python benchmarks/robustness.py --tables "Taylor–Hood in 2D" --json benchmarks/robustness_taylor_hood_2d.json
     python benchmarks/robustness.py --tables "Taylor–Hood in 2D" \
         --json benchmarks/robustness_taylor_hood_2d_higher_weight.json
+    python benchmarks/robustness.py --tables "Taylor–Hood in 2D,Taylor–Hood k = 2 in 3D" \
+        --json benchmarks/robustness_taylor_hood_lagrange.json
+    python benchmarks/robustness.py --tables "Taylor–Hood in 2D,Taylor–Hood k = 2 in 3D" \
+        --petsc '{"schur_laplacian_basis": "hierarchical"}' --json benchmarks/robustness_taylor_hood_hierarchical.json
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import time
 from pathlib import Path
 
@@ -103,10 +108,12 @@ def rows(max_level_2d: int, max_level_3d: int, time_steps=TIME_STEPS):
                 yield "Taylor–Hood k = 1 at large dt in 3D", f"{example}, Taylor–Hood k = 1", \
                     dataclasses.replace(base, dt=dt), level
     solid = load_study_case(EXAMPLES / "solid_in_fluid_3d.toml")
+    fluid = load_study_case(EXAMPLES / "fluid_in_solid_3d.toml").with_discretisation(family="taylor_hood", order=2)
     incompressible = dataclasses.replace(solid.materials, lam=1e4 * solid.materials.mu)
     for level in range(max_level_3d):
         yield "Taylor–Hood k = 2 in 3D", "solid_in_fluid_3d", \
             solid.with_discretisation(family="taylor_hood", order=2), level
+        yield "Taylor–Hood k = 2 in 3D", "fluid_in_solid_3d, dt = 0.1", dataclasses.replace(fluid, dt=0.1), level
         yield "materials", "solid_in_fluid_3d, lam/mu = 1e+04", \
             dataclasses.replace(solid, materials=incompressible), level
     paper = paper_case(1e-2)
@@ -136,6 +143,9 @@ def main() -> None:
     parser.add_argument("--levels", type=levels_arg, default=None, help="only these levels, 'A-B' or 'A'")
     parser.add_argument("--tolerance", type=tolerance_arg, default=1e-12,
                         help="1e-12 (the default), another number, or auto")
+    parser.add_argument("--petsc", type=json.loads, default=None,
+                        help="PETSc options over every row's, as JSON (old beside new), e.g. "
+                             "'{\"schur_laplacian_basis\": \"hierarchical\"}'")
     args = parser.parse_args()
     time_steps = TIME_STEPS if args.dt is None else tuple(float(dt) for dt in args.dt.split(","))
     tables = None if args.tables is None else set(args.tables.split(","))
@@ -144,6 +154,8 @@ def main() -> None:
         if ((tables is not None and table not in tables) or (args.cases is not None and label not in args.cases)
                 or (args.levels is not None and level not in args.levels)):
             continue
+        if args.petsc:
+            case = case.with_solver(petsc={**case.solver.petsc, **args.petsc})
         record = {"solver": args.solver, "table": table, "case": label, "dt": case.dt, "level": level,
                   **iterations(case, level, args.steps, args.solver, args.tolerance)}
         records.append(record)

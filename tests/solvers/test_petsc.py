@@ -74,6 +74,7 @@ def test_case_file_options_reach_petsc(tmp_path):
     record = json.loads(out.read_text())[0]
     assert record["solver"] == "petsc" and record["preconditioner"]["ksp"] == "gmres"
     assert record["preconditioner"]["pressure"] == "lsc" and record["preconditioner"]["schur_higher_weight"] == 1.0
+    assert record["preconditioner"]["schur_laplacian_basis"] == "hierarchical"   # a pressure of degree 1
     from petsc4py import PETSc
     assert not PETSc.Options().hasName("fsivsp_ksp_type")
 
@@ -93,6 +94,8 @@ def test_petsc_options_validated():
     with pytest.raises(CaseError, match=r"schur_approximation: expected one of lsc, cahouet-chabard, petsc, joint-lsc, "
                                         r"joint-lsc-mass, joint-cahouet-chabard, got 'bfbt'"):
         read_petsc_options({"schur_approximation": "bfbt"})
+    with pytest.raises(CaseError, match=r"schur_laplacian_basis: expected one of lagrange, hierarchical, got 'nodal'"):
+        read_petsc_options({"schur_laplacian_basis": "nodal"})
     assert read_petsc_options({"schur_higher_weight": 4}) == {"schur_higher_weight": "4"}
     for bad in (0, -1, "heavy", True, "nan"):
         with pytest.raises(CaseError, match=rf"solver.petsc.schur_higher_weight: expected a positive number, got "

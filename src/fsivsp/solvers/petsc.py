@@ -30,6 +30,7 @@ from ..model.materials import Materials
 from ..runtime import parallel
 from ..runtime.threads import idle
 from .base import AUTO, TOLERANCE, NotConverged
+from .petsc_basis import takes_lagrange
 from .petsc_init import entered_options, option_names, petsc, register, unregister
 from .petsc_joint import joint_pressure_block
 from .petsc_layout import aij, from_summands, layout
@@ -58,6 +59,7 @@ DEFAULTS: dict[str, str] = {
     "fieldsplit_pressure_ksp_type": "preonly",
     "schur_approximation": "lsc",
     "schur_higher_weight": "1",
+    "schur_laplacian_basis": "lagrange",
     "schur_laplacian_pc_type": "hypre",
     "schur_laplacian_pc_hypre_boomeramg_max_iter": "2",
 }
@@ -125,15 +127,30 @@ DEFAULTS_SOLID_PRESSURE_HIGHER: dict[str, str] = {"schur_laplacian_pc_hypre_boom
 DEFAULTS_HIGHER_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "3"}
 
 
-#: Taylor–Hood k ≥ 2 in 2D: the commutator's weights D = diag(A) times 4 on the velocity's higher dofs
-#: (`petsc_schur.commutator`). With diag(A) there the commutator overweights smooth pressures by a factor growing like
-#: h⁻² (κ(P⁻¹S), velocity block exact, the paper's case at Δt = 0.1, levels 1–3: 2.8, 7.8, 27; ×4: 2.3, 2.7, 5.5,
-#: ×16: 5.0, 4.8, 5.2, but then F is hard for BoomerAMG: 54–69 iterations). The paper's case, levels 1–4, iterations
-#: a step at Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 13.3, 16.3, 22.3, 31.7 → 19.3, 19.7, 19.7, 22.7; 11.3, 12.7, 19.3, 29.0 →
-#: 16.7, 18.3, 20.3, 23.3; 9.0, 10.0, 12.7, 15.7 → 10.3, 10.3, 10.0, 10.3; 4.7, 5.0, 6.7, 10.3 → 4.7, 5.0, 5.7, 6.3
-#: (level 4, 528 723 unknowns: 45.8 against 80.8 s a row at Δt = 0.1; BENCHMARKS.md, "Taylor–Hood k = 2 in 2D"). In
-#: 3D it costs (solid_in_fluid_3d at Δt = 0.02, levels 0–1: 26.3, 27.0 → 31.3, 34.3) and 3D keeps 1.
+#: Taylor–Hood k ≥ 2 in 2D with F in the hierarchical basis (``schur_laplacian_basis = "hierarchical"``; `LAGRANGE_2D`
+#: in the Lagrange basis): the commutator's weights D = diag(A) times 4 on the velocity's higher dofs
+#: (`petsc_schur.commutator`). With diag(A) the commutator overweights smooth pressures by a factor growing like h⁻²
+#: (κ(P⁻¹S), velocity block exact, the paper's case at Δt = 0.1, levels 1–3: 2.8, 7.8, 27; ×4: 2.3, 2.7, 5.5, ×16: 5.0,
+#: 4.8, 5.2, but then F is hard for BoomerAMG in this basis: 54–69 iterations). The paper's case, levels 1–4, Δt = 0.1:
+#: 13.3, 16.3, 22.3, 31.7 → 19.3, 19.7, 19.7, 22.7 (BENCHMARKS.md, "Taylor–Hood k = 2 in 2D"). In 3D it costs
+#: (solid_in_fluid_3d at Δt = 0.02, levels 0–1: 26.3, 27.0 → 31.3, 34.3) and 3D keeps 1.
 DEFAULTS_HIGHER_2D: dict[str, str] = {"schur_higher_weight": "4"}
+
+#: A pressure of degree 2 (Taylor–Hood k = 2) with F's AMG in the Lagrange basis (`petsc_basis`, the default): in 2D
+#: the commutator's weights D = diag(A) × 6 on the velocity's higher dofs. F's BoomerAMG now holds the edge modes that
+#: a larger weight leaves to F (in the hierarchical basis ×16 took 54–69 iterations): the paper's case, levels 0–4,
+#: Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 14.3, 15.3, 15.7, 17.3, 18.3; 14.0, 13.7, 14.0, 15.7, 16.0; 10.0, 10.7, 10.7, 9.3, 8.3;
+#: 4.7, 4.7, 5.3, 5.3, 5.7 (× 4: 14.3, 14.3, 16.3, 19.3 on levels 1–4 at Δt = 0.1; × 8: 14.3, 17.3, 18.0 on levels
+#: 2–4 at 10⁻², +21 %; BENCHMARKS.md, "Taylor–Hood k = 2: F in the Lagrange basis").
+LAGRANGE_2D: dict[str, str] = {"schur_higher_weight": "6"}
+
+#: A pressure of degree 2 in 3D with F in the Lagrange basis: one smoothing sweep and two cycles on F (F is no longer
+#: the hard part: `DEFAULTS_HIGHER_PRESSURE`'s three sweeps and `PMG_HIGHER`'s four cycles cost time and no
+#: iterations), four SSOR sweeps in the velocity's p-multigrid. The solid ball at Δt = 0.02, levels 0–2: 26.3, 27.0,
+#: 27.0 iterations (75.2 s on level 2) in the hierarchical basis; 19.0, 22.0, 23.7 (67.5 s) in the Lagrange basis
+#: with the old cycles; 20.3, 20.7, 21.0 (46.1 s) with these.
+LAGRANGE_3D: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "1",
+                               "schur_laplacian_pc_hypre_boomeramg_max_iter": "2", f"{SMOOTH}ksp_max_it": "4"}
 
 
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
@@ -294,13 +311,15 @@ class PETScSolver:
         mass = self.stiffness_ratio is not None and self.stiffness_ratio <= MASS_DOMINATED
         if mass and velocity == "boomeramg" and not sets_velocity(given):
             velocity = "ssor"
+        two, lagrange = spaces.mesh.dim == 2, takes_lagrange(spaces, {**DEFAULTS, **given})
         defaults = {**DEFAULTS,
                     **velocity_options(spaces, velocity, mass),
                     **(DEFAULTS_HIGHER_PRESSURE if spaces.order >= 2 else {}),
-                    **(DEFAULTS_HIGHER_2D if spaces.order >= 2 and spaces.mesh.dim == 2 else {}),
+                    **(DEFAULTS_HIGHER_2D if spaces.order >= 2 and two else {}),
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
-                    **(DEFAULTS_SOLID_PRESSURE_3D if solid and spaces.mesh.dim == 3 else {}),
-                    **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {})}
+                    **(DEFAULTS_SOLID_PRESSURE_3D if solid and not two else {}),
+                    **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {}),
+                    **((LAGRANGE_2D if two else LAGRANGE_3D) if lagrange else {})}
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
             self.ksp.setOptionsPrefix(PREFIX)
@@ -438,10 +457,15 @@ class PETScSolver:
                     *self.fields, *self.keep):
             obj.destroy()
         if getattr(self, "_schur", None) is not None:
-            self._schur.amg.destroy()
+            self._schur.free()
         if getattr(self, "_velocity", None) is not None:
             self._velocity.destroy()
         unregister(self)
+
+    def _laplacian_basis(self) -> str:
+        """The basis in which the pressure Laplacian's AMG ran (`petsc_basis`): "lagrange" or "hierarchical"."""
+        schur = getattr(self, "_schur", None)
+        return "lagrange" if schur is not None and schur.basis is not None else "hierarchical"
 
     def progress(self) -> str:
         return f"PETSc {self.iterations[-1] if self.iterations else 0} its"
@@ -457,5 +481,6 @@ class PETScSolver:
                                    "velocity": self.options["velocity_preconditioner"],
                                    "stiffness_ratio": self.stiffness_ratio,
                                    "pressure": self.options["schur_approximation"],
-                                   "schur_higher_weight": float(self.options["schur_higher_weight"])},
+                                   "schur_higher_weight": float(self.options["schur_higher_weight"]),
+                                   "schur_laplacian_basis": self._laplacian_basis()},
                 "iterations": {"mean": float(np.mean(counts)), "max": int(max(counts)), "solves": len(self.iterations)}}

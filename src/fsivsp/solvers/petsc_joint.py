@@ -37,6 +37,7 @@ from .petsc_schur import (
     commutator,
     higher_rows,
     install,
+    laplacian_basis,
     part,
     pressure_laplacian,
     velocity_mass,
@@ -64,7 +65,8 @@ def joint_pressure_block(solver, spaces: Spaces, materials: Materials, dt: float
     inverse = _mass_inverse(solver, spaces, materials, dt)
     solver.keep += [a, c, d, weights, y, laplacian]
     return install(solver, SchurPreconditioner(PETSc, laplacian, None, None,
-                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=inverse))
+                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=inverse,
+                                                 basis=laplacian_basis(solver, spaces)))
 
 
 def _mass_inverse(solver, spaces: Spaces, materials: Materials, dt: float):
@@ -88,7 +90,8 @@ def _joint_lsc(solver, spaces: Spaces, a, c, d, mass=None) -> SchurPreconditione
     middle.axpy(-1.0, d, structure=structure)
     solver.keep += [a, c, d, y, laplacian, middle]
     return install(solver, SchurPreconditioner(PETSc, laplacian, middle, None,
-                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=mass))
+                                                 solver.ksp.getOptionsPrefix() + "schur_laplacian_", mass=mass,
+                                                 basis=laplacian_basis(solver, spaces)))
 
 
 def _weighted_mass(solver, spaces: Spaces, materials: Materials, dt: float):

@@ -5,7 +5,8 @@ matrix [[A, Cᵀ], [C, 0]] (C = −ΔtB), as PETSc's Python PC built with PETSc'
   pressure Laplacian, F⁻¹ by BoomerAMG cycles); "corrected" for MINI's bubbles (and Taylor–Hood k = 1's edge
   dofs), whose part Y_hᵀ A_hh Y_h of the middle factor is replaced by F_h diag(F_h)⁻¹ F_h, F_h = C Y_h (E their
   difference): without it the bubbles' stiffness, scaled by Δt² λ, dominates the middle factor; for Taylor–Hood
-  k ≥ 2 in 2D, where that replacement underestimates, diag(A) weighted ×4 on the higher dofs instead (`commutator`);
+  k ≥ 2 in 2D, where that replacement underestimates, diag(A) weighted ×6 on the higher dofs instead (`commutator`;
+  ×4 with F's AMG in the hierarchical basis, `petsc_basis`);
 - Cahouet–Chabard, S⁻¹ ≈ F_ρ⁻¹ + diag(M_p/(2ν))⁻¹/Δt, F_ρ = C diag(ρM)⁻¹ Cᵀ: the mass's and the viscosity's
   limits of S added (ν region-wise where fluids differ).
 """
@@ -18,6 +19,7 @@ from ..fem import forms
 from ..fem.spaces import Spaces
 from ..model.materials import Materials
 from ..runtime import parallel
+from .petsc_basis import lagrange_basis, takes_lagrange
 from .sparse import to_scipy_csr
 
 
@@ -25,24 +27,44 @@ class SchurPreconditioner:
     """PETSc's Python PC for the pressure block, −S⁻¹ ≈ −(L⁻¹ R L⁻¹ + w ∘ + M⁻¹) (see the module's docstring): ``L`` a
     pressure Laplacian applied by an inner PC under the prefix ``prefix`` (BoomerAMG, its cycles set by
     ``schur_laplacian_pc_hypre_boomeramg_max_iter``), ``R`` a sparse matrix (None: one application of L⁻¹ and no
-    second), ``weight`` a diagonal (None: none), ``mass`` a KSP applying M⁻¹ (None: none; `petsc_joint`)."""
+    second), ``weight`` a diagonal (None: none), ``mass`` a KSP applying M⁻¹ (None: none; `petsc_joint`). With a
+    ``basis`` P (`petsc_basis`) L⁻¹ is P (Pᵀ L P)⁻¹ Pᵀ, the inner PC on Pᵀ L P."""
 
-    def __init__(self, PETSc, laplacian, middle, weight, prefix: str, mass=None):
+    def __init__(self, PETSc, laplacian, middle, weight, prefix: str, mass=None, basis=None):
+        self.basis = basis
         self.amg = PETSc.PC().create(comm=laplacian.getComm())
         self.amg.setOptionsPrefix(prefix)
-        self.amg.setOperators(laplacian)
+        self.amg.setOperators(laplacian if basis is None else galerkin(PETSc, laplacian, basis))
         self.amg.setFromOptions()
         self.amg.setUp()
         self.middle, self.weight, self.mass = middle, weight, mass
         self._u, self._v = laplacian.createVecs()
+        if basis is not None:
+            self._in, self._out = basis.createVecs()
+
+    def laplacian_solve(self, x, y) -> None:
+        """y = L⁻¹ x by the inner PC (in the ``basis`` if any)."""
+        if self.basis is None:
+            self.amg.apply(x, y)
+        else:
+            self.basis.multTranspose(x, self._in)
+            self.amg.apply(self._in, self._out)
+            self.basis.mult(self._out, y)
+
+    def free(self) -> None:
+        """Free the inner PC and the basis (not `destroy`: petsc4py calls a context's destroy with the PC)."""
+        self.amg.destroy()
+        if self.basis is not None:
+            for obj in (self.basis, self._in, self._out):
+                obj.destroy()
 
     def apply(self, pc, x, y) -> None:
         if self.middle is None:
-            self.amg.apply(x, y)
+            self.laplacian_solve(x, y)
         else:
-            self.amg.apply(x, self._u)
+            self.laplacian_solve(x, self._u)
             self.middle.mult(self._u, self._v)
-            self.amg.apply(self._v, y)
+            self.laplacian_solve(self._v, y)
         if self.weight is not None:
             self._u.pointwiseMult(self.weight, x)
             y.axpy(1.0, self._u)
@@ -78,7 +100,14 @@ def pressure_block(solver, spaces: Spaces, materials: Materials, dt: float) -> S
         weight.scale(1 / dt)
     solver.keep += [m for m in (a, c, y, laplacian, middle, weight) if m is not None]
     return install(solver, SchurPreconditioner(PETSc, laplacian, middle, weight,
-                                               solver.ksp.getOptionsPrefix() + "schur_laplacian_"))
+                                               solver.ksp.getOptionsPrefix() + "schur_laplacian_",
+                                               basis=laplacian_basis(solver, spaces)))
+
+
+def laplacian_basis(solver, spaces: Spaces):
+    """The pressure Laplacian's basis for its inner PC: `petsc_basis.lagrange_basis` where `petsc_basis.takes_lagrange`,
+    else None (the hierarchical basis of Q_h)."""
+    return lagrange_basis(solver, spaces) if takes_lagrange(spaces, solver.options) else None
 
 
 def install(solver, context: SchurPreconditioner) -> SchurPreconditioner:
@@ -92,8 +121,8 @@ def install(solver, context: SchurPreconditioner) -> SchurPreconditioner:
 def commutator(solver, spaces: Spaces, a, c):
     """(C Y, Yᵀ A Y, Y), Y = D⁻¹ Cᵀ: the least-squares commutator's Laplacian and middle factor, the middle factor
     corrected on the higher dofs for MINI and Taylor–Hood k = 1 (`correct_higher`). D = diag(A), times ``w =
-    schur_higher_weight`` on the higher dofs (`petsc.DEFAULTS_HIGHER_2D`): their share of Yᵀ A Y, which overweights a
-    smooth pressure, falls like w⁻², their share of F like w⁻¹."""
+    schur_higher_weight`` on the higher dofs (`petsc.LAGRANGE_2D`, `petsc.DEFAULTS_HIGHER_2D`): their share of Yᵀ A Y,
+    which overweights a smooth pressure, falls like w⁻², their share of F like w⁻¹."""
     weights = a.getDiagonal()
     weight = float(solver.options["schur_higher_weight"])
     if weight != 1:

@@ -23,6 +23,9 @@ VELOCITY_PRECONDITIONERS = ("boomeramg", "ssor", "p-multigrid", "condensed")
 #: joint ones with a solid pressure).
 SCHUR_APPROXIMATIONS = ("lsc", "cahouet-chabard", "petsc", "joint-lsc", "joint-lsc-mass", "joint-cahouet-chabard")
 
+#: The bases of a degree-2 pressure Laplacian's AMG (``[solver.petsc] schur_laplacian_basis``; `petsc_basis`).
+LAPLACIAN_BASES = ("lagrange", "hierarchical")
+
 
 def solver_names() -> list[str]:
     """The methods a `SolverSpec` takes here."""
@@ -53,6 +56,9 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
     if options.get("schur_approximation", SCHUR_APPROXIMATIONS[0]) not in SCHUR_APPROXIMATIONS:
         raise expected(f"{where}.schur_approximation", f"one of {', '.join(SCHUR_APPROXIMATIONS)}",
                        options["schur_approximation"])
+    if options.get("schur_laplacian_basis", LAPLACIAN_BASES[0]) not in LAPLACIAN_BASES:
+        raise expected(f"{where}.schur_laplacian_basis", f"one of {', '.join(LAPLACIAN_BASES)}",
+                       options["schur_laplacian_basis"])
     if "schur_higher_weight" in options and not _positive(options["schur_higher_weight"]):
         raise expected(f"{where}.schur_higher_weight", "a positive number",
                        next(v for k, v in table.items() if k.lstrip("-") == "schur_higher_weight"))
