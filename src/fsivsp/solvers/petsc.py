@@ -141,8 +141,11 @@ DEFAULTS_HIGHER_2D: dict[str, str] = {"schur_higher_weight": "4"}
 #: a larger weight leaves to F (in the hierarchical basis ×16 took 54–69 iterations): the paper's case, levels 0–4,
 #: Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 14.3, 15.3, 15.7, 17.3, 18.3; 14.0, 13.7, 14.0, 15.7, 16.0; 10.0, 10.7, 10.7, 9.3, 8.3;
 #: 4.7, 4.7, 5.3, 5.3, 5.7 (× 4: 14.3, 14.3, 16.3, 19.3 on levels 1–4 at Δt = 0.1; × 8: 14.3, 17.3, 18.0 on levels
-#: 2–4 at 10⁻², +21 %; BENCHMARKS.md, "Taylor–Hood k = 2: F in the Lagrange basis").
-LAGRANGE_2D: dict[str, str] = {"schur_higher_weight": "6"}
+#: 2–4 at 10⁻², +21 %; BENCHMARKS.md, "Taylor–Hood k = 2: F in the Lagrange basis"). At most 4 interpolation weights a
+#: row on F: in this basis hypre's 2D defaults made F's operator complexity 5.4 on level 4 (3.9 with it, the same
+#: iterations, 0.92× the time); with a solid pressure (λ/μ = 10⁴, Δt = 10⁻², level 3) 4.4 and 1.7× the time of the
+#: hierarchical basis.
+LAGRANGE_2D: dict[str, str] = {"schur_higher_weight": "6", "schur_laplacian_pc_hypre_boomeramg_P_max": "4"}
 
 #: A pressure of degree 2 in 3D with F in the Lagrange basis: one smoothing sweep and two cycles on F (F is no longer
 #: the hard part: `DEFAULTS_HIGHER_PRESSURE`'s three sweeps and `PMG_HIGHER`'s four cycles cost time and no
@@ -151,6 +154,12 @@ LAGRANGE_2D: dict[str, str] = {"schur_higher_weight": "6"}
 #: with the old cycles; 20.3, 20.7, 21.0 (46.1 s) with these.
 LAGRANGE_3D: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "1",
                                "schur_laplacian_pc_hypre_boomeramg_max_iter": "2", f"{SMOOTH}ksp_max_it": "4"}
+
+#: A pressure of degree 2 with F in the Lagrange basis and a solid pressure: one smoothing sweep on the joint Laplacian
+#: (in 3D `LAGRANGE_3D` already). The paper's case at λ/μ = 10⁴, levels 1–3, Δt = 10⁻² and 0.1: 25.0, 24.0, 24.3 and
+#: 32.0, 31.3, 33.0 iterations, level 3 in 19.5 and 27.7 s; with three sweeps the same iterations in 33.8 and 45.8 s;
+#: in the hierarchical basis 24.0, 23.0, 25.0 and 32.0, 35.0, 38.3 in 25.3 and 33.8 s.
+LAGRANGE_SOLID_PRESSURE: dict[str, str] = {"schur_laplacian_pc_hypre_boomeramg_grid_sweeps_all": "1"}
 
 
 #: hypre's elasticity options without a block's prefix (`ELASTICITY_3D`'s values).
@@ -319,7 +328,8 @@ class PETScSolver:
                     **(DEFAULTS_SOLID_PRESSURE if solid else {}),
                     **(DEFAULTS_SOLID_PRESSURE_3D if solid and not two else {}),
                     **(DEFAULTS_SOLID_PRESSURE_HIGHER if solid and spaces.order >= 2 else {}),
-                    **((LAGRANGE_2D if two else LAGRANGE_3D) if lagrange else {})}
+                    **((LAGRANGE_2D if two else LAGRANGE_3D) if lagrange else {}),
+                    **(LAGRANGE_SOLID_PRESSURE if lagrange and solid else {})}
         with entered_options(PETSc, PREFIX, defaults, options or {}) as self.options:
             self.ksp = PETSc.KSP().create(comm=self.comm)
             self.ksp.setOptionsPrefix(PREFIX)
