@@ -140,11 +140,10 @@ DEFAULTS_HIGHER_2D: dict[str, str] = {"schur_higher_weight": "4"}
 #: the commutator's weights D = diag(A) × 6 on the velocity's higher dofs. F's BoomerAMG now holds the edge modes that
 #: a larger weight leaves to F (in the hierarchical basis ×16 took 54–69 iterations): the paper's case, levels 0–4,
 #: Δt = 0.1, 10⁻², 10⁻³, 10⁻⁴: 14.3, 15.3, 15.7, 17.3, 18.3; 14.0, 13.7, 14.0, 15.7, 16.0; 10.0, 10.7, 10.7, 9.3, 8.3;
-#: 4.7, 4.7, 5.3, 5.3, 5.7 (× 4: 14.3, 14.3, 16.3, 19.3 on levels 1–4 at Δt = 0.1; × 8: 14.3, 17.3, 18.0 on levels
-#: 2–4 at 10⁻², +21 %; BENCHMARKS.md, "Taylor–Hood k = 2: F in the Lagrange basis"). At most 4 interpolation weights a
-#: row on F: in this basis hypre's 2D defaults made F's operator complexity 5.4 on level 4 (3.9 with it, the same
-#: iterations, 0.92× the time); with a solid pressure (λ/μ = 10⁴, Δt = 10⁻², level 3) 4.4 and 1.7× the time of the
-#: hierarchical basis.
+#: 5.0, 4.7, 5.3, 5.0, 5.7, level 4 in 0.78–1.03× the time of the hierarchical basis (× 4: 14.3, 14.3, 16.3, 19.3 on
+#: levels 1–4 at Δt = 0.1; × 8: 14.3, 17.3, 18.0 on levels 2–4 at 10⁻², +21 %; BENCHMARKS.md, "Taylor–Hood k = 2: F in
+#: the Lagrange basis"). At most 4 interpolation weights a row on F: in this basis hypre's 2D defaults made F's
+#: operator complexity 5.4 on level 4 (3.9 with it, the same iterations, 0.92× the time).
 LAGRANGE_2D: dict[str, str] = {"schur_higher_weight": "6", "schur_laplacian_pc_hypre_boomeramg_P_max": "4"}
 
 #: A pressure of degree 2 in 3D with F in the Lagrange basis: one smoothing sweep and two cycles on F (F is no longer

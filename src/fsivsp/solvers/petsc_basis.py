@@ -6,8 +6,8 @@ hierarchical coefficients = P × Lagrange coefficients (the values at the vertic
     F⁻¹ ≈ P (Pᵀ F P)⁻¹ Pᵀ,   P: identity on a vertex, on an edge e = (a, b) (u_e − (u_a + u_b)/2) / c,
 
 c the bubble's value at its midpoint (`EDGE_MIDPOINT`), and BoomerAMG cycles on Pᵀ F P. The paper's case, Taylor–Hood
-k = 2, Δt = 0.1, level 1 (issue 33's eleventh session): 15.3 iterations a step with F's cycles so or F solved
-exactly, 25.7 with the cycles in the hierarchical basis (docs/solvers.md, "F in the Lagrange basis").
+k = 2, Δt = 0.1, level 1 (issue 33's eleventh session): 15.3 iterations a step with F's cycles in this basis or F
+solved exactly, 25.7 with the cycles in the hierarchical basis (docs/solvers.md, "F in the Lagrange basis").
 """
 from __future__ import annotations
 
