@@ -23,6 +23,14 @@ def is_whole(value: Any, low: int | None = 1, high: int | None = None) -> bool:
             and (high is None or value <= high))
 
 
+def read_number(text: str) -> float:
+    """``text`` read as a float, NaN where it does not read as one (then `is_number` is false, as for "inf")."""
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def is_number(value: Any) -> bool:
     """Whether ``value`` is a finite real number (not a bool)."""
     return isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..errors import is_number, read_number
 from ..timestepping.schemes import SCHEMES
 
 MAX_LEVEL = 6
@@ -46,22 +47,16 @@ def level_arg(text: str) -> int:
 
 def positive_float(text: str) -> float:
     """A finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 < value < float("inf"):
+    value = read_number(text)
+    if not (is_number(value) and value > 0):
         raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
     return value
 
 
 def non_negative_float(text: str) -> float:
     """A finite number ≥ 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
-    if not 0 <= value < float("inf"):
+    value = read_number(text)
+    if not (is_number(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
     return value
 

@@ -2,12 +2,11 @@
 and ``[solver]``, the command line, code) and passed unchanged to `Scheme` and the backends of `step_solver`."""
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping
 from dataclasses import InitVar, dataclass, field
 
-from ..errors import CaseError, expected, is_number, is_whole
+from ..errors import CaseError, expected, is_number, is_whole, read_number
 from ..runtime import parallel
 from .base import AUTO, MAX_ITERATIONS, START_REDUCTION
 from .direct import available_methods
@@ -25,6 +24,10 @@ SCHUR_APPROXIMATIONS = ("lsc", "cahouet-chabard", "petsc", "joint-lsc", "joint-l
 
 #: The bases of a degree-2 pressure Laplacian's AMG (``[solver.petsc] schur_laplacian_basis``; `petsc_basis`).
 LAPLACIAN_BASES = ("lagrange", "hierarchical")
+
+#: The options whose value is one of a few names (the first the default), checked by `read_petsc_options`.
+CHOICES = {"velocity_preconditioner": VELOCITY_PRECONDITIONERS, "schur_approximation": SCHUR_APPROXIMATIONS,
+           "schur_laplacian_basis": LAPLACIAN_BASES}
 
 
 def solver_names() -> list[str]:
@@ -50,28 +53,14 @@ def read_petsc_options(table, where: str = "solver.petsc") -> dict[str, str]:
             options[name] = str(value)
         else:
             raise expected(f"{where}.{key}", "a string, a number or true/false", value)
-    if options.get("velocity_preconditioner", VELOCITY_PRECONDITIONERS[0]) not in VELOCITY_PRECONDITIONERS:
-        raise expected(f"{where}.velocity_preconditioner", f"one of {', '.join(VELOCITY_PRECONDITIONERS)}",
-                       options["velocity_preconditioner"])
-    if options.get("schur_approximation", SCHUR_APPROXIMATIONS[0]) not in SCHUR_APPROXIMATIONS:
-        raise expected(f"{where}.schur_approximation", f"one of {', '.join(SCHUR_APPROXIMATIONS)}",
-                       options["schur_approximation"])
-    if options.get("schur_laplacian_basis", LAPLACIAN_BASES[0]) not in LAPLACIAN_BASES:
-        raise expected(f"{where}.schur_laplacian_basis", f"one of {', '.join(LAPLACIAN_BASES)}",
-                       options["schur_laplacian_basis"])
-    if "schur_higher_weight" in options and not _positive(options["schur_higher_weight"]):
+    for name, choices in CHOICES.items():
+        if options.get(name, choices[0]) not in choices:
+            raise expected(f"{where}.{name}", f"one of {', '.join(choices)}", options[name])
+    weight = read_number(options.get("schur_higher_weight", "1"))
+    if not (is_number(weight) and weight > 0):
         raise expected(f"{where}.schur_higher_weight", "a positive number",
                        next(v for k, v in table.items() if k.lstrip("-") == "schur_higher_weight"))
     return options
-
-
-def _positive(text: str) -> bool:
-    """Whether ``text`` reads as a finite number > 0."""
-    try:
-        value = float(text)
-    except ValueError:
-        return False
-    return math.isfinite(value) and value > 0
 
 
 @dataclass(frozen=True)
