@@ -26,7 +26,15 @@ EXAMPLE = Path(__file__).parent.parent / "examples" / "fluid_in_solid_3d.toml"
 
 
 def measure(level: int, solver: str, steps: int, maxh: float | None, tolerance: float | str) -> dict:
-    """One run: mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak memory."""
+    """One run on the threads `fsivsp run` takes (`threads.using`'s default, so that ``matvec_ratio``'s unit is the
+    run's product, as in summary.json): mesh, spaces, scheme (assembly and solver set-up), ``steps`` steps; peak
+    memory."""
+    from fsivsp.runtime import threads
+    with threads.using():
+        return {**_measured(level, solver, steps, maxh, tolerance), "threads": threads.current()}
+
+
+def _measured(level: int, solver: str, steps: int, maxh: float | None, tolerance: float | str) -> dict:
     import dataclasses
 
     from fsivsp.config.case import load_study_case
@@ -148,7 +156,8 @@ def main() -> None:
             rows.append(row)
             s, st = row["seconds"], row["statistics"]
             its = st.get("iterations") or {}
-            print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  set-up {s['scheme']:8.1f} s "
+            print(f"level {level} {row['solver']:>9} dofs {row['dofs']:>9}  threads {row['threads']}  "
+                  f"set-up {s['scheme']:8.1f} s "
                   f"(solver {s['solver_setup']:7.1f} s)  step {s['step']:8.2f} s = {row['cost']['matvec_ratio']:7.1f} "
                   f"products  its {its.get('mean', 0):6.1f}  "
                   f"peak {row['peak_bytes'] / 2**30:6.2f} GiB = "
