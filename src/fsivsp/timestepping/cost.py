@@ -12,16 +12,27 @@ from __future__ import annotations
 import statistics
 import time
 
+from ..runtime.threads import current as current_threads
+
 #: Products timed for one `product_seconds` (their median: robust to a scheduler's tick on a shared machine).
 PRODUCT_REPEATS = 5
+#: On more than one thread, untimed products for this long come first: right after `march` (which stops the
+#: TaskManager for its overlapped loop and starts it again) NGSolve's products are slow for a while. The 3D fluid
+#: ball, two threads: level 3 (65 130 unknowns) 8.0 ms a product for the first 80 ms, then 1.2–1.3 ms; level 4
+#: (535 830) 18 → 11 ms over 70 ms. On one thread no such transient (2.3 ms from the first product on level 3).
+SETTLE_SECONDS = 0.2
 
 
 def product_seconds(matrix, repeats: int = PRODUCT_REPEATS) -> float:
     """The median wall time of ``repeats`` products y = A x with ``matrix`` (x = 1; NGSolve's, on the run's
-    threads; a distributed matrix: this rank's part, the products of the ranks' local matrices)."""
+    threads, after `SETTLE_SECONDS` of untimed ones on more than one; a distributed matrix: this rank's part, the
+    products of the ranks' local matrices)."""
     x, y = matrix.CreateColVector(), matrix.CreateColVector()
     x[:] = 1.0
     y.data = matrix * x   # the first touches the vectors' pages: not timed
+    settled = time.perf_counter() + (SETTLE_SECONDS if current_threads() > 1 else 0.0)
+    while time.perf_counter() < settled:
+        y.data = matrix * x
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
