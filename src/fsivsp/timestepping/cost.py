@@ -19,7 +19,7 @@ PRODUCT_REPEATS = 5
 #: On more than one thread, untimed products for this long come first: right after `march` (which stops the
 #: TaskManager for its overlapped loop and starts it again) NGSolve's products are slow for a while. The 3D fluid
 #: ball, two threads: level 3 (65 130 unknowns) 8.0 ms a product for the first 80 ms, then 1.2–1.3 ms; level 4
-#: (535 830) 18 → 11 ms over 70 ms. On one thread no such transient (2.3 ms from the first product on level 3).
+#: (535 830) 18 → 11 ms over 90 ms. On one thread no such transient (2.3 ms from the first product on level 3).
 SETTLE_SECONDS = 0.2
 
 
